@@ -1,0 +1,157 @@
+"""Raw recordings -> one session table on one clock, no sample dropped.
+
+Each format lives in its own module with two functions:
+
+``sniff(path: Path, head: bytes) -> bool``
+    True when the file (or folder) looks like this format; ``head`` is the
+    first 4 KiB of a file (empty for a folder).
+``read(path: Path, opts: Options) -> Recording``
+    Parse it into sensor :class:`~sportfusion.session.Stream` objects whose
+    times are seconds since ``Recording.epoch_utc`` (Unix seconds), or since
+    an arbitrary start when the format has no absolute time (``epoch_utc``
+    None).
+
+:func:`combine` puts several recordings on one clock (UTC where they have
+it, plus per-input offsets) and merges them with
+:func:`sportfusion.session.merge_streams`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+
+from sportfusion import meta as sfmeta
+from sportfusion.errors import InputError
+from sportfusion.session import Stream, merge_streams
+
+#: Formats in sniffing order (most specific first); each is a module of this package.
+FORMATS = ("bouldering", "phyphox", "rtklib", "xsens", "nmea", "gpx", "csvmap")
+
+
+@dataclass
+class Options:
+    """Options that readers may use (all optional).
+
+    Attributes
+    ----------
+    geoid_offset : float or None
+        GPX: geoid separation N [m] added to ``<ele>`` (MSL) to get ellipsoidal h.
+    no_time : bool
+        GPX: accept points without usable times; ``t`` is then the point index [s].
+    column_map : dict
+        Generic CSV: table column -> CSV header (``--map acc_x=AccX``); ``t`` maps the time column.
+    time_unit : str
+        Generic CSV: unit of the time column: ``s``, ``ms``, ``us``, ``ns`` or ``iso``.
+    units : dict
+        Generic CSV: table column -> unit of the CSV values (``g``, ``deg/s``, ``mG``, ``nT``, ...).
+    hand : str
+        Bouldering dataset: which hand's IMU file to read (``lefthand``/``righthand``).
+    """
+
+    geoid_offset: float | None = None
+    no_time: bool = False
+    column_map: dict[str, str] = field(default_factory=dict)
+    time_unit: str = "s"
+    units: dict[str, str] = field(default_factory=dict)
+    hand: str = "lefthand"
+
+
+@dataclass
+class Recording:
+    """One parsed input: its streams, its time origin and what it says about itself."""
+
+    source: str
+    format: str
+    streams: list[Stream]
+    epoch_utc: float | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _module(fmt: str) -> Any:
+    if fmt not in FORMATS:
+        raise InputError(f"unknown input format {fmt!r}, expected one of {', '.join(FORMATS)}")
+    return importlib.import_module(f"sportfusion.ingest.{fmt}")
+
+
+def detect_format(path: Path) -> str:
+    """Name of the format of ``path`` by sniffing its content (and name)."""
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    head = b""
+    if path.is_file():
+        with path.open("rb") as fh:
+            head = fh.read(4096)
+        if not head:
+            raise InputError(f"{path}: file is empty; expected a raw recording")
+    for fmt in FORMATS:
+        if _module(fmt).sniff(path, head):
+            return fmt
+    raise InputError(
+        f"{path}: format not recognised; expected phyphox (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
+        "Xsens export, a bouldering trial folder, or a CSV with --map (or give --format)"
+    )
+
+
+def read_recording(path: str | Path, fmt: str | None = None, opts: Options | None = None) -> Recording:
+    """Parse one raw input (format sniffed unless given)."""
+    p = Path(path)
+    fmt = fmt or detect_format(p)
+    rec = _module(fmt).read(p, opts or Options())
+    if not any(len(s.t) for s in rec.streams):
+        raise InputError(f"{p}: no samples found in this {fmt} input")
+    return rec
+
+
+def combine(
+    recordings: list[Recording], offsets: dict[str, float] | None = None
+) -> tuple[pa.Table, dict[str, Any], list[str]]:
+    """Put recordings on one clock and merge them into a session table.
+
+    The session's time origin is the earliest ``epoch_utc`` among the
+    recordings that have one.  A recording with UTC is shifted by its epoch's
+    difference to that origin; one without UTC starts at session t = 0.  Then
+    ``offsets[source]`` [s] (keyed by the input's path or file name) is added.
+
+    Returns
+    -------
+    table : pyarrow.Table
+        The session table.
+    meta : dict
+        Fresh session metadata with ``sources`` (file, format, samples per stream).
+    warnings : list of str
+    """
+    offsets = dict(offsets or {})
+    warnings: list[str] = []
+    epochs = [r.epoch_utc for r in recordings if r.epoch_utc is not None]
+    origin = min(epochs) if epochs else None
+    streams: list[Stream] = []
+    sources = []
+    for rec in recordings:
+        key = next((k for k in (rec.source, Path(rec.source).name) if k in offsets), None)
+        off = offsets.pop(key, 0.0) if key else 0.0
+        shift = off + (rec.epoch_utc - origin if (rec.epoch_utc is not None and origin is not None) else 0.0)
+        if rec.epoch_utc is None and len(recordings) > 1 and key is None:
+            warnings.append(
+                f"{rec.source} has no absolute time; it starts at session t = 0 (give --offset {Path(rec.source).name}=SECONDS)"
+            )
+        warnings += [f"{rec.source}: {w}" for w in rec.warnings]
+        for s in rec.streams:
+            streams.append(Stream(f"{Path(rec.source).name}:{s.name}", s.t + shift, s.columns))
+        sources.append({"file": Path(rec.source).name, "format": rec.format, "shift_s": shift, **rec.meta})
+    if offsets:
+        raise InputError(f"--offset names {', '.join(offsets)}, which is not one of the inputs")
+    table, report = merge_streams(streams)
+    for name, n in report.duplicates.items():
+        warnings.append(f"{name}: {n} repeated identical sample(s) folded into one row each")
+    meta = sfmeta.new_meta("session", origin)
+    for src in sources:
+        prefix = src["file"] + ":"
+        src["samples"] = {k[len(prefix) :]: v for k, v in report.rows.items() if k.startswith(prefix)}
+    meta["sources"] = sources
+    return table, meta, warnings

@@ -1,0 +1,204 @@
+"""The column registry: name -> Arrow type, unit and meaning.
+
+Every column that flows between the tools is described here once.  The write
+helper in :mod:`sportfusion.io` attaches ``{"unit": ...}`` to each field from
+this registry, and :func:`check_types` refuses a table whose known columns
+carry the wrong type.  Columns a user adds that are not registered pass
+through untouched.
+
+Two prefixes are resolved automatically: ``std_<name>`` (1-sigma of
+``<name>``, same unit) and ``true_<name>`` (truth from ``simulate``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.errors import InputError
+
+F64 = pa.float64()
+I16 = pa.int16()
+I32 = pa.int32()
+I64 = pa.int64()
+STR = pa.string()
+BOOL = pa.bool_()
+
+
+@dataclass(frozen=True)
+class Column:
+    """One registered column.
+
+    Attributes
+    ----------
+    name : str
+        Column name as it appears in the table.
+    type : pyarrow.DataType
+        Arrow type the column must have.
+    unit : str
+        SI unit (``"1"`` for dimensionless, ``""`` for text/flags).
+    meaning : str
+        One line describing the column.
+    """
+
+    name: str
+    type: pa.DataType
+    unit: str
+    meaning: str
+
+
+COLUMNS: dict[str, Column] = {}
+
+
+def register(name: str, type_: pa.DataType, unit: str, meaning: str) -> Column:
+    """Add (or replace) a column in the registry and return it."""
+    col = Column(name, type_, unit, meaning)
+    COLUMNS[name] = col
+    return col
+
+
+def _xyz(prefix: str, unit: str, meaning: str, axes: str = "xyz") -> None:
+    for a in axes:
+        register(f"{prefix}_{a}" if prefix else a, F64, unit, f"{meaning}, {a} axis")
+
+
+register("t", F64, "s", "time since time.epoch_utc")
+# IMU, body frame
+_xyz("acc", "m/s^2", "specific force in the body (sensor) frame")
+_xyz("gyr", "rad/s", "angular rate in the body (sensor) frame")
+_xyz("mag", "uT", "magnetic field in the body frame (unit '1' when normalised)")
+register("pressure", F64, "Pa", "barometric pressure")
+for _i in range(4):
+    register(f"dev_q{_i}", F64, "1", f"device's own orientation quaternion, component {_i} (scalar first)")
+# GNSS
+register("lat", F64, "deg", "WGS84 latitude")
+register("lon", F64, "deg", "WGS84 longitude")
+register("h", F64, "m", "WGS84 ellipsoidal height")
+register("h_msl", F64, "m", "height above mean sea level as reported by the receiver")
+for _a, _m in (("n", "north"), ("e", "east"), ("d", "down")):
+    register(f"vel_{_a}", F64, "m/s", f"GNSS velocity, {_m} (NED)")
+register("gnss_fix", I16, "1", "fix quality, NMEA GGA codes (0 invalid, 1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float, 6 DR)")
+register("gnss_sats", I16, "1", "number of satellites used")
+register("gnss_hdop", F64, "1", "horizontal dilution of precision")
+register("gnss_sigma_h", F64, "m", "horizontal position 1-sigma (per axis)")
+register("gnss_sigma_v", F64, "m", "vertical position 1-sigma")
+register("gnss_sigma_n", F64, "m", "north position 1-sigma")
+register("gnss_sigma_e", F64, "m", "east position 1-sigma")
+for _a in ("ne", "eu", "un"):
+    register(f"gnss_sd{_a}", F64, "m", f"signed square root of the {_a} position covariance (RTKLIB sd{_a})")
+register("gnss_speed", F64, "m/s", "speed over ground as reported by the receiver")
+register("gnss_course", F64, "deg", "course over ground, clockwise from true north")
+register("gnss_age", F64, "s", "age of differential corrections")
+register("gnss_ratio", F64, "1", "ambiguity ratio-test value")
+_xyz("gnss", "m", "GNSS position in the local frame")
+# estimates
+_xyz("", "m", "position in the local frame")
+_xyz("v", "m/s", "velocity in the local frame")
+_xyz("a", "m/s^2", "kinematic acceleration in the local frame")
+for _i in range(4):
+    register(f"q{_i}", F64, "1", f"attitude quaternion q_BO, component {_i} (scalar first)")
+register("roll", F64, "rad", "roll angle")
+register("pitch", F64, "rad", "pitch angle")
+register("yaw", F64, "rad", "yaw angle (azimuth from north)")
+register("speed", F64, "m/s", "speed")
+register("distance", F64, "m", "curvilinear distance along the path")
+for _s in ("gyr", "acc", "mag"):
+    _xyz(f"bias_{_s}", COLUMNS[f"{_s}_x"].unit, f"estimated {_s} bias")
+_xyz("scale_mag", "1", "estimated magnetometer scale error")
+# events
+register("event", STR, "", "event name at its instant (takeoff, touchdown, gate, ...), else null")
+register("grip", BOOL, "", "hand is gripping (low-motion window)")
+register("imu_saturated", BOOL, "", "IMU sample exceeded the sensor range")
+register("gate_b_peak", F64, "1", "peak magnetic intensity at a gate crossing (normalised)")
+register("gate_distance", F64, "m", "distance to the gate magnet at the crossing")
+register("turn", STR, "", "turn direction at a gate (L or R)")
+# other table kinds
+register("route", STR, "", "route (track) identifier")
+register("hold", I32, "1", "hold index on the route")
+register("gate", I32, "1", "gate number along the course")
+
+#: Table kinds and the columns each must have.
+REQUIRED: dict[str, tuple[str, ...]] = {
+    "session": ("t",),
+    "truth": ("t",),
+    "jumps": (),
+    "holds": ("route", "hold", "x", "y", "z"),
+    "gates": ("gate",),
+    "summary": (),
+}
+KINDS = tuple(REQUIRED)
+
+
+def lookup(name: str) -> Column | None:
+    """Return the registered column for ``name``, resolving ``std_``/``true_`` prefixes."""
+    if name in COLUMNS:
+        return COLUMNS[name]
+    for prefix in ("true_", "std_"):
+        if name.startswith(prefix):
+            base = lookup(name[len(prefix) :])
+            if base is not None:
+                return Column(name, base.type, base.unit, f"{prefix[:-1]} of {base.name}")
+    return None
+
+
+def unit_of(name: str) -> str | None:
+    """Unit of a column, or None for an unregistered column."""
+    col = lookup(name)
+    return None if col is None else col.unit
+
+
+def check_types(table: pa.Table) -> None:
+    """Raise :class:`InputError` naming the first known column whose type is wrong."""
+    for field in table.schema:
+        col = lookup(field.name)
+        if col is None:
+            continue
+        ok = field.type == col.type
+        if not ok and pa.types.is_integer(col.type) and pa.types.is_integer(field.type):
+            ok = True  # any integer width is accepted for counters and codes
+        if not ok:
+            raise InputError(f"column '{field.name}' has type {field.type}, expected {col.type} ({col.meaning})")
+
+
+def require_columns(table: pa.Table, names: tuple[str, ...] | list[str], what: str = "") -> None:
+    """Raise :class:`InputError` listing the required columns that are missing."""
+    missing = [n for n in names if n not in table.column_names]
+    if missing:
+        need = f" for {what}" if what else ""
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}{need}; the table has {', '.join(table.column_names) or 'no columns'}"
+        )
+
+
+def to_arrow(name: str, values: object) -> pa.Array:
+    """Build an Arrow array for a column, cast to its registered type.
+
+    NaN in a float column becomes null (a sensor that did not sample).
+    Unregistered names keep the type Arrow infers.
+    """
+    col = lookup(name)
+    if isinstance(values, pa.ChunkedArray):
+        values = values.combine_chunks()
+    if isinstance(values, pa.Array):
+        arr = values
+    else:
+        a = np.asarray(values)
+        if a.dtype.kind == "f":
+            arr = pa.array(a, mask=np.isnan(a))
+        elif a.dtype.kind == "O":
+            arr = pa.array(list(a), from_pandas=True)
+        else:
+            arr = pa.array(a)
+    if col is not None and arr.type != col.type:
+        if pa.types.is_floating(col.type) and arr.type == pa.null():
+            arr = pa.nulls(len(arr), col.type)
+        arr = arr.cast(col.type)
+    return arr
+
+
+def floats(table: pa.Table, name: str) -> np.ndarray:
+    """A numeric column as a float64 numpy array, nulls as NaN."""
+    col = table.column(name).cast(F64).fill_null(np.nan)
+    return np.asarray(col.to_numpy(), dtype=np.float64)

@@ -1,0 +1,1 @@
+"""Simulators: truth trajectories and noisy sensor sessions for each sport."""

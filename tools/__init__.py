@@ -1,0 +1,1 @@
+"""sportfusion command-line tools: one thin click command per file."""

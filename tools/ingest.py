@@ -1,0 +1,111 @@
+"""``ingest``: raw recordings -> one session table."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from sportfusion.ingest import FORMATS, Options, combine, read_recording
+from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import parse_pairs
+
+
+@tool(
+    "ingest",
+    reads_table=False,
+    example="""
+  ingest phyphox_export.zip > session.parquet
+  ingest phyphox_export.zip gps_logger.nmea -o session.parquet
+  ingest track.gpx --geoid-offset 47.9 > gnss.parquet
+  ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet""",
+)
+@click.argument("raw", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(FORMATS),
+    default=None,
+    help="Force the format of every RAW input (default: sniffed).",
+)
+@click.option(
+    "--offset",
+    "offsets",
+    multiple=True,
+    metavar="NAME=SECONDS",
+    help="Shift one input's times by SECONDS [s] on the session clock (NAME: its file name). Repeatable.",
+)
+@click.option(
+    "--geoid-offset",
+    type=float,
+    default=None,
+    help="GPX: geoid separation N [m] added to <ele> (MSL) to give ellipsoidal h.",
+)
+@click.option("--no-time", is_flag=True, help="GPX: accept points without times; t becomes the point index [s].")
+@click.option(
+    "--map",
+    "mapping",
+    multiple=True,
+    metavar="COL=HEADER[,COL=HEADER...]",
+    help="Generic CSV: table column from CSV header, e.g. t=Time,acc_x=AccX.",
+)
+@click.option(
+    "--time-unit",
+    type=click.Choice(["s", "ms", "us", "ns", "iso"]),
+    default="s",
+    show_default=True,
+    help="Generic CSV: unit of the time column [s, ms, us, ns or ISO-8601 UTC].",
+)
+@click.option(
+    "--units",
+    "units",
+    multiple=True,
+    metavar="COL=UNIT[,...]",
+    help="Generic CSV: unit of the CSV values per column (g, deg/s, mG, nT, km/h, ...).",
+)
+@click.option(
+    "--hand",
+    type=click.Choice(["lefthand", "righthand"]),
+    default="lefthand",
+    show_default=True,
+    help="Bouldering dataset trial: which hand's IMU file.",
+)
+def main(
+    tool: Tool,
+    raw: tuple[Path, ...],
+    fmt: str | None,
+    offsets: tuple[str, ...],
+    geoid_offset: float | None,
+    no_time: bool,
+    mapping: tuple[str, ...],
+    time_unit: str,
+    units: tuple[str, ...],
+    hand: str,
+) -> None:
+    """Read raw recordings (phyphox CSV export as ZIP or folder, NMEA 0183, GPX 1.1,
+    RTKLIB .pos, Xsens MT Manager text export, a bouldering-dataset trial folder,
+    or any CSV with a column map) and merge them into one session table on one
+    clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
+    are the union of all sample times, a sensor's columns null elsewhere."""
+    opts = Options(
+        geoid_offset=geoid_offset,
+        no_time=no_time,
+        column_map=parse_pairs(mapping, "--map"),
+        time_unit=time_unit,
+        units=parse_pairs(units, "--units"),
+        hand=hand,
+    )
+    offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
+    recordings = [read_recording(p, fmt, opts) for p in raw]
+    table, meta, warnings = combine(recordings, offs)
+    for w in warnings:
+        tool.warn(w)
+    tool.info(f"{table.num_rows} rows from {len(raw)} input(s)")
+    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw]})
+
+
+def _seconds(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r} is not a number of seconds", param_hint="--offset") from exc
