@@ -126,8 +126,8 @@ def render(table: pa.Table, meta: dict[str, Any], rows: int = 5) -> str:
 def _rows_block(title: str, part: pa.Table) -> list[str]:
     names = part.column_names
     data = [[_fmt(v) for v in part.column(n).to_pylist()] for n in names]
-    widths = [max([len(n)] + [len(x) for x in col]) for n, col in zip(names, data)]
-    out = [f"{title}:", "  " + " ".join(n.rjust(w) for n, w in zip(names, widths))]
+    widths = [max([len(n)] + [len(x) for x in col]) for n, col in zip(names, data, strict=True)]
+    out = [f"{title}:", "  " + " ".join(n.rjust(w) for n, w in zip(names, widths, strict=True))]
     for i in range(part.num_rows):
-        out.append("  " + " ".join(col[i].rjust(w) for col, w in zip(data, widths)))
+        out.append("  " + " ".join(col[i].rjust(w) for col, w in zip(data, widths, strict=True)))
     return out

@@ -18,7 +18,7 @@ from __future__ import annotations
 import copy
 import json
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import Any
 
 from sportfusion import __version__
@@ -56,7 +56,7 @@ def format_epoch(epoch: float | str | None) -> str | None:
         return None
     if isinstance(epoch, str):
         epoch = parse_epoch(epoch)
-    dt = datetime.fromtimestamp(float(epoch), tz=timezone.utc)
+    dt = datetime.fromtimestamp(float(epoch), tz=UTC)
     return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
@@ -67,7 +67,7 @@ def parse_epoch(text: str) -> float:
     except ValueError as exc:
         raise InputError(f"metadata key 'time.epoch_utc' is {text!r}, expected an ISO-8601 UTC time") from exc
     if dt.tzinfo is None:
-        dt = dt.replace(tzinfo=timezone.utc)
+        dt = dt.replace(tzinfo=UTC)
     return dt.timestamp()
 
 
