@@ -95,14 +95,19 @@ def read_table(
 
 
 def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
-    """Attach field units from the registry and the encoded metadata to a table.
+    """Attach field units and the encoded metadata to a table.
+
+    A field's unit comes from ``meta["units"][name]`` when the session declares
+    one (a magnetometer normalised to the local field has unit ``"1"``), else
+    from the column registry.
 
     This is the one place metadata is attached: pyarrow drops schema metadata
     whenever a table is rebuilt from arrays, so every writer goes through here.
     """
+    overrides = meta.get("units") or {}
     fields = []
     for field in table.schema:
-        unit = schema.unit_of(field.name)
+        unit = overrides.get(field.name, schema.unit_of(field.name))
         md = dict(field.metadata or {})
         if unit is not None:
             md[b"unit"] = unit.encode()

@@ -123,6 +123,9 @@ def validate_meta(meta: Any) -> dict[str, Any]:
             raise _bad("frame.origin", "must be [lat_deg, lon_deg, h_m]")
         if not isinstance(frame["azimuth_deg"], (int, float)):
             raise _bad("frame.azimuth_deg", "must be a number (deg)")
+    units = meta.get("units")
+    if units is not None and (not isinstance(units, dict) or not all(isinstance(v, str) for v in units.values())):
+        raise _bad("units", "must map column names to unit strings")
     events = meta.get("events")
     if events is not None and not isinstance(events, list):
         raise _bad("events", "must be a list")

@@ -96,6 +96,8 @@ def main(
         hand=hand,
     )
     offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
+    if mapping and fmt is None:
+        fmt = "csvmap"  # a column map only makes sense for the generic CSV reader
     recordings = [read_recording(p, fmt, opts) for p in raw]
     table, meta, warnings = combine(recordings, offs)
     for w in warnings:

@@ -123,7 +123,9 @@ def combine(
     table : pyarrow.Table
         The session table.
     meta : dict
-        Fresh session metadata with ``sources`` (file, format, samples per stream).
+        Fresh session metadata with ``sources`` (file, format, samples per
+        stream) and ``units`` where a reader declared a non-default unit
+        (``Recording.meta["units"]``, e.g. ``{"mag_x": "1"}``).
     warnings : list of str
     """
     offsets = dict(offsets or {})
@@ -132,6 +134,7 @@ def combine(
     origin = min(epochs) if epochs else None
     streams: list[Stream] = []
     sources = []
+    units: dict[str, str] = {}
     for rec in recordings:
         key = next((k for k in (rec.source, Path(rec.source).name) if k in offsets), None)
         off = offsets.pop(key, 0.0) if key else 0.0
@@ -143,7 +146,9 @@ def combine(
         warnings += [f"{rec.source}: {w}" for w in rec.warnings]
         for s in rec.streams:
             streams.append(Stream(f"{Path(rec.source).name}:{s.name}", s.t + shift, s.columns))
-        sources.append({"file": Path(rec.source).name, "format": rec.format, "shift_s": shift, **rec.meta})
+        extra = dict(rec.meta)
+        units.update(extra.pop("units", {}))
+        sources.append({"file": Path(rec.source).name, "format": rec.format, "shift_s": shift, **extra})
     if offsets:
         raise InputError(f"--offset names {', '.join(offsets)}, which is not one of the inputs")
     table, report = merge_streams(streams)
@@ -154,4 +159,6 @@ def combine(
         prefix = src["file"] + ":"
         src["samples"] = {k[len(prefix) :]: v for k, v in report.rows.items() if k.startswith(prefix)}
     meta["sources"] = sources
+    if units:
+        meta["units"] = units
     return table, meta, warnings

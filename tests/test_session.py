@@ -1,0 +1,83 @@
+"""Merging multi-rate sensor streams keeps every sample on one strictly increasing clock."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyarrow as pa
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sportfusion.errors import InputError
+from sportfusion.session import Stream, merge_streams, validate_time, with_columns
+
+
+def test_shared_instants_share_a_row():
+    a = Stream("imu", [0.0, 0.1, 0.2], {"acc_x": [1.0, 2.0, 3.0]})
+    g = Stream("gps", [0.1, 0.25], {"lat": [47.0, 47.1]})
+    table, rep = merge_streams([a, g])
+    assert table.column("t").to_pylist() == [0.0, 0.1, 0.2, 0.25]
+    assert table.column("acc_x").to_pylist() == [1.0, 2.0, 3.0, None]
+    assert table.column("lat").to_pylist() == [None, 47.0, None, 47.1]
+    assert rep.rows == {"imu": 3, "gps": 2}
+
+
+def test_identical_repeats_folded_and_counted_conflicts_refused():
+    g = Stream("gps", [0.0, 1.0, 1.0, 2.0], {"lat": [1.0, 2.0, 2.0, 3.0]})
+    table, rep = merge_streams([g])
+    assert table.num_rows == 3 and rep.duplicates == {"gps": 1}
+    bad = Stream("gps", [0.0, 1.0, 1.0], {"lat": [1.0, 2.0, 2.5]})
+    with pytest.raises(InputError, match="two different samples at t = 1.000000"):
+        merge_streams([bad])
+
+
+def test_same_column_from_two_inputs_at_one_instant_refused():
+    with pytest.raises(InputError, match="column 'lat' comes from two inputs"):
+        merge_streams([Stream("a", [0.0, 1.0], {"lat": [1.0, 2.0]}), Stream("b", [1.0], {"lat": [3.0]})])
+
+
+def test_unsorted_stream_is_sorted_with_its_values():
+    table, _ = merge_streams([Stream("a", [2.0, 0.0, 1.0], {"acc_x": [20.0, 0.0, 10.0]})])
+    assert table.column("acc_x").to_pylist() == [0.0, 10.0, 20.0]
+
+
+def test_registered_types_applied():
+    table, _ = merge_streams([Stream("g", [0.0], {"gnss_fix": np.array([4]), "lat": [np.nan]})])
+    assert table.schema.field("gnss_fix").type == pa.int16()
+    assert table.column("lat").null_count == 1  # NaN means "did not sample"
+
+
+def test_with_columns_adds_and_replaces():
+    table = pa.table({"t": [0.0, 1.0], "x": [1.0, 2.0], "keep": ["a", "b"]})
+    out = with_columns(table, {"x": np.array([5.0, 6.0]), "y": np.array([7.0, np.nan])})
+    assert out.column_names == ["t", "x", "keep", "y"]
+    assert out.column("x").to_pylist() == [5.0, 6.0]
+    assert out.column("y").to_pylist() == [7.0, None]
+
+
+rates = st.lists(
+    st.tuples(st.integers(1, 60), st.sampled_from([0.001, 0.01, 0.1, 0.0125, 1 / 3]), st.floats(-5, 5)),
+    min_size=1,
+    max_size=4,
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rates)
+def test_merge_of_random_multirate_streams_loses_nothing(spec):
+    cols = ["acc_x", "gyr_x", "mag_x", "lat"]
+    streams = []
+    for i, (n, dt, t0) in enumerate(spec):
+        t = t0 + dt * np.arange(n)
+        streams.append(Stream(f"s{i}", t, {cols[i]: np.arange(n, dtype=float) + 1000 * i}))
+    table, rep = merge_streams(streams)
+    t = validate_time(table)
+    assert np.all(np.diff(t) > 0)
+    for i, s in enumerate(streams):
+        col = table.column(cols[i])
+        assert len(col) - col.null_count == len(s.t)  # every sample kept
+        vals = np.array(col.to_pylist(), dtype=object)
+        present = np.array([v is not None for v in vals])
+        np.testing.assert_array_equal(t[present], np.sort(s.t))
+        np.testing.assert_array_equal(vals[present].astype(float), np.arange(len(s.t)) + 1000 * i)
+    assert sum(rep.rows.values()) == sum(len(s.t) for s in streams)
