@@ -41,7 +41,8 @@ demo: $(STAMP)
 	$(BIN)/inspect $(DEMO)/session.parquet
 
 bench: $(STAMP)
-	@echo "no benchmarks yet"
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,bench]'
+	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python "$$f"; done
 
 clean:
 	rm -rf $(VENV) $(DEMO) .pytest_cache .hypothesis *.egg-info
