@@ -41,6 +41,12 @@ from sportfusion.tools._options import parse_pairs
     default=None,
     help="GPX: geoid separation N [m] added to <ele> (MSL) to give ellipsoidal h.",
 )
+@click.option(
+    "--date",
+    default=None,
+    metavar="YYYY-MM-DD",
+    help="NMEA: UTC date for a log without RMC/ZDA dates (times of day only).",
+)
 @click.option("--no-time", is_flag=True, help="GPX: accept points without times; t becomes the point index [s].")
 @click.option(
     "--map",
@@ -76,6 +82,7 @@ def main(
     fmt: str | None,
     offsets: tuple[str, ...],
     geoid_offset: float | None,
+    date: str | None,
     no_time: bool,
     mapping: tuple[str, ...],
     time_unit: str,
@@ -90,6 +97,7 @@ def main(
     opts = Options(
         geoid_offset=geoid_offset,
         no_time=no_time,
+        date=date,
         column_map=parse_pairs(mapping, "--map"),
         time_unit=time_unit,
         units=parse_pairs(units, "--units"),

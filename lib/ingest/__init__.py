@@ -51,6 +51,8 @@ class Options:
         Generic CSV: table column -> unit of the CSV values (``g``, ``deg/s``, ``mG``, ``nT``, ...).
     hand : str
         Bouldering dataset: which hand's IMU file to read (``lefthand``/``righthand``).
+    date : str or None
+        NMEA: UTC date ``YYYY-MM-DD`` of a log without RMC/ZDA dates (GGA only).
     """
 
     geoid_offset: float | None = None
@@ -59,6 +61,7 @@ class Options:
     time_unit: str = "s"
     units: dict[str, str] = field(default_factory=dict)
     hand: str = "lefthand"
+    date: str | None = None
 
 
 @dataclass

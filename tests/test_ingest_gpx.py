@@ -1,0 +1,173 @@
+"""GPX reader: tracks, times, elevations and the geoid offset, on files written here."""
+
+from __future__ import annotations
+
+import calendar
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sportfusion import io as sfio
+from sportfusion.errors import InputError
+from sportfusion.ingest import FORMATS, Options, gpx
+
+BIN = Path(sys.executable).parent
+
+HEAD = (
+    '<?xml version="1.0" encoding="UTF-8"?>\n'
+    '<gpx version="1.1" creator="test" xmlns="http://www.topografix.com/GPX/1/1" '
+    'xmlns:gpxtpx="http://www.garmin.com/xmlschemas/TrackPointExtension/v2">\n'
+)
+
+
+def trkpt(lat, lon, ele=None, time=None, extra=""):
+    inner = ""
+    if ele is not None:
+        inner += f"<ele>{ele}</ele>"
+    if time is not None:
+        inner += f"<time>{time}</time>"
+    return f'<trkpt lat="{lat}" lon="{lon}">{inner}{extra}</trkpt>\n'
+
+
+def write(tmp_path: Path, segments: list[list[str]], extra: str = "", name: str = "track.gpx") -> Path:
+    body = "".join("<trkseg>\n" + "".join(seg) + "</trkseg>\n" for seg in segments)
+    p = tmp_path / name
+    p.write_text(HEAD + extra + "<trk><name>run</name>" + body + "</trk>\n</gpx>\n")
+    return p
+
+
+def col(rec, name):
+    v = rec.streams[0].columns[name]
+    if hasattr(v, "to_pylist"):
+        return v.to_pylist()
+    return [None if np.isnan(x) else float(x) for x in v]
+
+
+EXT = (
+    "<sat>9</sat><hdop>0.8</hdop><fix>{fix}</fix>"
+    "<extensions><gpxtpx:TrackPointExtension><gpxtpx:speed>{speed}</gpxtpx:speed>"
+    "<gpxtpx:course>{course}</gpxtpx:course></gpxtpx:TrackPointExtension></extensions>"
+)
+
+
+def timed_track(tmp_path):
+    seg1 = [
+        trkpt(47.4049, 10.2945, 912.5, "2026-01-05T13:00:00Z", EXT.format(fix="3d", speed=10.0, course=90.0)),
+        trkpt(47.4050, 10.2946, 913.0, "2026-01-05T13:00:00.500Z", EXT.format(fix="dgps", speed=12.0, course=0.0)),
+    ]
+    seg2 = [
+        trkpt(47.4051, 10.2947, None, "2026-01-05T13:00:01.500Z", EXT.format(fix="none", speed=5.0, course=180.0)),
+        trkpt(47.4052, 10.2948, 914.0, "2026-01-05T14:00:02+01:00", EXT.format(fix="pps", speed=4.0, course=270.0)),
+    ]
+    waypoint = '<wpt lat="1" lon="2"><time>2020-01-01T00:00:00Z</time></wpt>\n'
+    return write(tmp_path, [seg1, seg2], extra=waypoint)
+
+
+def test_track_with_times_segments_and_extensions(tmp_path):
+    rec = gpx.read(timed_track(tmp_path), Options())
+    (s,) = rec.streams
+    assert rec.epoch_utc == calendar.timegm((2026, 1, 5, 13, 0, 0))
+    assert s.t.tolist() == [0.0, 0.5, 1.5, 2.0]  # both segments, +01:00 zone converted; the waypoint ignored
+    assert col(rec, "lat") == [47.4049, 47.4050, 47.4051, 47.4052]
+    assert col(rec, "h_msl") == [912.5, 913.0, None, 914.0]  # missing <ele> -> null
+    assert col(rec, "h") == [None] * 4  # no geoid offset: ellipsoidal h unknown
+    assert sum("--geoid-offset" in w for w in rec.warnings) == 1
+    assert col(rec, "gnss_fix") == [1, 2, 0, 3]
+    assert col(rec, "gnss_sats") == [9] * 4
+    assert col(rec, "gnss_hdop") == [0.8] * 4
+    assert col(rec, "gnss_speed") == [10.0, 12.0, 5.0, 4.0]
+    assert col(rec, "vel_n") == pytest.approx([0.0, 12.0, -5.0, 0.0], abs=1e-12)
+    assert col(rec, "vel_e") == pytest.approx([10.0, 0.0, 0.0, -4.0], abs=1e-12)
+    assert rec.meta["segments"] == 2
+
+
+def test_geoid_offset_applied(tmp_path):
+    rec = gpx.read(timed_track(tmp_path), Options(geoid_offset=47.9))
+    h = col(rec, "h")
+    assert h[2] is None  # no <ele>
+    assert [h[0], h[1], h[3]] == pytest.approx([912.5 + 47.9, 913.0 + 47.9, 914.0 + 47.9], abs=1e-9)
+    assert col(rec, "h_msl")[0] == 912.5
+    assert not any("--geoid-offset" in w for w in rec.warnings)
+
+
+def test_geoidheight_element_used_without_option(tmp_path):
+    p = write(tmp_path, [[trkpt(1, 2, 100.0, "2026-01-05T13:00:00Z", "<geoidheight>48.5</geoidheight>")]])
+    assert col(gpx.read(p, Options()), "h") == [148.5]
+    assert col(gpx.read(p, Options(geoid_offset=40.0)), "h") == [140.0]  # the option wins
+
+
+def test_points_without_time_error_and_no_time_mode(tmp_path):
+    p = write(tmp_path, [[trkpt(1, 2, 5.0, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, 6.0), trkpt(1.2, 2, 7.0)]])
+    with pytest.raises(InputError, match=r"2 of 3 track point\(s\) have no <time>.*--no-time"):
+        gpx.read(p, Options())
+    rec = gpx.read(p, Options(no_time=True))
+    assert rec.epoch_utc is None
+    assert rec.streams[0].t.tolist() == [0.0, 1.0, 2.0]
+    assert col(rec, "h_msl") == [5.0, 6.0, 7.0]
+    assert any("--no-time" in w for w in rec.warnings)
+
+
+def test_identical_times_error(tmp_path):
+    same = "2026-01-05T13:00:00Z"
+    p = write(tmp_path, [[trkpt(1, 2, 5.0, same), trkpt(1.1, 2, 5.0, same), trkpt(1.2, 2, 5.0, same)]])
+    with pytest.raises(InputError, match="all 3 track points have the same time.*--no-time"):
+        gpx.read(p, Options())
+    assert gpx.read(p, Options(no_time=True)).streams[0].t.tolist() == [0.0, 1.0, 2.0]
+
+
+def test_backwards_time_error_but_exact_repeat_allowed(tmp_path):
+    back = [trkpt(1, 2, 5.0, "2026-01-05T13:00:01Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:00Z")]
+    with pytest.raises(InputError, match="track point 1 .* is not later than point 0"):
+        gpx.read(write(tmp_path, [back]), Options())
+    a, b = trkpt(1, 2, 5.0, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:01Z")
+    rec = gpx.read(write(tmp_path, [[a, b], [b, trkpt(1.2, 2, 5.0, "2026-01-05T13:00:02Z")]]), Options())
+    assert rec.streams[0].t.tolist() == [0.0, 1.0, 1.0, 2.0]  # the repeat is folded by the merge
+
+
+def test_no_elevation_at_all(tmp_path):
+    p = write(tmp_path, [[trkpt(1, 2, None, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, None, "2026-01-05T13:00:01Z")]])
+    rec = gpx.read(p, Options(geoid_offset=47.9))
+    assert col(rec, "h") == [None, None] and col(rec, "h_msl") == [None, None]
+
+
+def test_routes_only_and_broken_xml(tmp_path):
+    p = tmp_path / "route.gpx"
+    p.write_text(HEAD + '<rte><rtept lat="1" lon="2"/></rte><wpt lat="1" lon="2"/></gpx>\n')
+    with pytest.raises(InputError, match=r"no track points.*1 route point\(s\) and 1 waypoint"):
+        gpx.read(p, Options())
+    broken = tmp_path / "broken.gpx"
+    broken.write_text(HEAD + "<trk><trkseg><trkpt lat=")
+    with pytest.raises(InputError, match="not a readable GPX file"):
+        gpx.read(broken, Options())
+
+
+def test_sniff():
+    assert gpx.sniff(Path("a.xml"), HEAD.encode())
+    assert not gpx.sniff(Path("a.gpx"), b"$GPGGA,1*00\n")
+
+
+@pytest.mark.parametrize("force", [[], ["--format", "gpx"]], ids=["sniffed", "forced"])
+def test_ingest_command(tmp_path, force):
+    if not force and any(importlib.util.find_spec(f"sportfusion.ingest.{f}") is None for f in FORMATS):
+        pytest.skip("a sibling reader module of sportfusion.ingest is missing, so formats cannot be sniffed")
+    track = timed_track(tmp_path)
+    out = tmp_path / "out.parquet"
+    cmd = [str(BIN / "ingest"), *force, str(track), "--geoid-offset", "47.9", "-o", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    table, _ = sfio.read_table(out, kind="session")
+    assert table.num_rows == 4
+    assert table.column("h").to_pylist()[0] == pytest.approx(912.5 + 47.9)
+    # no times: one error line, nothing written; --no-time reads it
+    untimed = write(tmp_path, [[trkpt(1, 2, 5.0), trkpt(1.1, 2, 6.0)]], name="untimed.gpx")
+    proc = subprocess.run([str(BIN / "ingest"), *force, str(untimed)], capture_output=True, timeout=120)
+    assert proc.returncode == 1 and proc.stdout == b""
+    err = proc.stderr.decode().strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("Error: ingest:") and "--no-time" in err[0]
+    proc = subprocess.run([str(BIN / "ingest"), *force, str(untimed), "--no-time", "-o", str(out)], capture_output=True)
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert sfio.read_table(out)[0].column("t").to_pylist() == [0.0, 1.0]

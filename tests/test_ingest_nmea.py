@@ -1,0 +1,239 @@
+"""NMEA 0183 reader: values hand-computed from the sentences written here."""
+
+from __future__ import annotations
+
+import calendar
+import importlib.util
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sportfusion import io as sfio
+from sportfusion.errors import InputError
+from sportfusion.ingest import FORMATS, Options, nmea, read_recording
+from sportfusion.meta import epoch_unix
+
+BIN = Path(sys.executable).parent
+KNOT = 1852.0 / 3600.0
+
+
+def sentence(body: str) -> str:
+    """``$body*hh`` with the XOR checksum of the body."""
+    cs = 0
+    for ch in body.encode():
+        cs ^= ch
+    return f"${body}*{cs:02X}"
+
+
+def write(tmp_path: Path, bodies: list[str], name: str = "log.nmea") -> Path:
+    p = tmp_path / name
+    p.write_text("\r\n".join(b if b.startswith("$") or not b else sentence(b) for b in bodies) + "\r\n")
+    return p
+
+
+def col(rec, name):
+    v = rec.streams[0].columns[name]
+    return v.to_pylist() if hasattr(v, "to_pylist") else [None if np.isnan(x) else float(x) for x in v]
+
+
+# Two epochs at 10 Hz, GN and GP talkers; then a GGA with a bad checksum and a garbage line.
+MIXED = [
+    "GNRMC,100000.00,A,4724.2940,N,01017.6700,E,19.438,45.0,150325,,,D",
+    "GNVTG,45.0,T,,M,19.438,N,36.0,K,D",
+    "GNGGA,100000.00,4724.2940,N,01017.6700,E,4,14,0.7,912.35,M,47.85,M,1.0,0000",
+    "GPGST,100000.00,0.02,0.015,0.010,30.0,0.012,0.016,0.030",
+    "GPGSV,3,1,11,03,03,111,00,04,15,270,00,06,01,010,00,13,06,292,00",
+    "GPQQQ,1,2",
+    "GPGGA,100000.10,4724.2946,N,01017.6712,E,5,13,0.9,913.00,M,47.85,M,1.0,0000",
+    "GPVTG,180.0,T,,M,,N,36.0,K,A",
+    "GLGST,100000.10,0.2,0.15,0.10,30.0,0.30,0.40,0.50",
+    "$GPGGA,100000.20,4724.2950,N,01017.6720,E,5,13,0.9,913.50,M,47.85,M,1.0,0000*00",
+    "this is not a sentence",
+]
+
+
+def test_mixed_talkers_exact_values(tmp_path):
+    rec = nmea.read(write(tmp_path, MIXED), Options())
+    (s,) = rec.streams
+    assert rec.epoch_utc == calendar.timegm((2025, 3, 15, 10, 0, 0))
+    assert s.t.tolist() == [0.0, 0.1]  # exact: whole and fractional seconds kept apart
+    # decimal minutes: 47 deg 24.2940' = 47.4049 deg, 10 deg 17.6700' = 10.2945 deg
+    assert col(rec, "lat") == pytest.approx([47.4049, 47 + 24.2946 / 60], abs=1e-12)
+    assert col(rec, "lon") == pytest.approx([10.2945, 10 + 17.6712 / 60], abs=1e-12)
+    assert col(rec, "h") == pytest.approx([912.35 + 47.85, 913.00 + 47.85], abs=1e-9)
+    assert col(rec, "h_msl") == pytest.approx([912.35, 913.00], abs=1e-9)
+    assert col(rec, "gnss_fix") == [4, 5]
+    assert col(rec, "gnss_sats") == [14, 13]
+    assert col(rec, "gnss_hdop") == pytest.approx([0.7, 0.9])
+    # GST: latitude/longitude/altitude sigmas; sigma_h = sqrt((0.012^2 + 0.016^2)/2) = sqrt(2e-4)
+    assert col(rec, "gnss_sigma_n") == pytest.approx([0.012, 0.30])
+    assert col(rec, "gnss_sigma_e") == pytest.approx([0.016, 0.40])
+    assert col(rec, "gnss_sigma_v") == pytest.approx([0.030, 0.50])
+    assert col(rec, "gnss_sigma_h") == pytest.approx([math.sqrt(2e-4), math.sqrt(0.125)], rel=1e-12)
+    # epoch 1: RMC 19.438 kn at 45 deg; epoch 2: VTG 36.0 km/h = 10 m/s at 180 deg (no knots field)
+    v1 = 19.438 * 1852 / 3600
+    assert col(rec, "gnss_speed") == pytest.approx([v1, 10.0], rel=1e-12)
+    assert col(rec, "gnss_course") == pytest.approx([45.0, 180.0])
+    assert col(rec, "vel_n") == pytest.approx([v1 / math.sqrt(2), -10.0], rel=1e-12)
+    assert col(rec, "vel_e") == pytest.approx([v1 / math.sqrt(2), 0.0], abs=1e-12)
+    assert "vel_d" not in s.columns
+    # one warning for the skipped lines, both causes counted
+    skipped = [w for w in rec.warnings if "skipped" in w]
+    assert len(skipped) == 1
+    assert "skipped 2 of 11" in skipped[0] and "1 with a bad or missing checksum" in skipped[0]
+    assert "1 unparsable" in skipped[0]
+    assert rec.meta["talkers"] == ["GL", "GN", "GP"]
+    assert rec.meta["ignored_sentences"] == 2  # GSV and the unknown QQQ: valid, just not used
+
+
+def test_gga_without_geoid_separation_and_without_date(tmp_path):
+    p = write(
+        tmp_path,
+        [
+            "GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,,M,,",
+            "GPGGA,120001.0,4807.038,N,01131.000,E,1,08,0.9,545.9,M,,M,,",
+        ],
+    )
+    rec = nmea.read(p, Options())
+    assert col(rec, "h") == [None, None]
+    assert col(rec, "h_msl") == pytest.approx([545.4, 545.9])
+    sep = [w for w in rec.warnings if "geoid separation" in w]
+    assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
+    # no RMC/ZDA: no absolute time, t = seconds of the UTC day
+    assert rec.epoch_utc is None
+    assert rec.streams[0].t.tolist() == [43200.0, 43201.0]
+    assert any("no date" in w for w in rec.warnings)
+    # the date option places it in UTC
+    dated = nmea.read(p, Options(date="2026-01-05"))
+    assert dated.epoch_utc == calendar.timegm((2026, 1, 5, 12, 0, 0))
+    assert dated.streams[0].t.tolist() == [0.0, 1.0]
+    assert not any("no date" in w for w in dated.warnings)
+    with pytest.raises(InputError, match="YYYY-MM-DD"):
+        nmea.read(p, Options(date="05.01.2026"))
+
+
+def test_midnight_rollover(tmp_path):
+    p = write(
+        tmp_path,
+        [
+            "GPRMC,235959.50,A,4807.038,N,01131.000,E,0.0,,311224,,,A",
+            "GPGGA,235959.50,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+            "GPGGA,000000.00,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+            "GPGGA,000000.50,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+            "GPRMC,000001.00,A,4807.038,N,01131.000,E,0.0,,010125,,,A",
+        ],
+    )
+    rec = nmea.read(p, Options())
+    assert rec.epoch_utc == calendar.timegm((2024, 12, 31, 23, 59, 59))
+    assert rec.streams[0].t.tolist() == [0.5, 1.0, 1.5, 2.0]
+    # speed 0 with an empty course: velocity is zero, not unknown
+    assert col(rec, "vel_n")[0] == 0.0 and "gnss_course" not in rec.streams[0].columns
+    # a GGA-only log across midnight keeps counting seconds
+    p2 = write(tmp_path, ["GPGGA,235959.5,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+                          "GPGGA,000000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"], "b.nmea")  # fmt: skip
+    assert nmea.read(p2, Options()).streams[0].t.tolist() == [86399.5, 86400.0]
+
+
+def test_decimal_minutes_by_hand():
+    assert nmea.dm_to_deg("4807.038", "N") == pytest.approx(48.1173, abs=1e-12)  # 48 + 7.038/60
+    assert nmea.dm_to_deg("01131.000", "E") == pytest.approx(11.5166666666667, abs=1e-12)  # 11 + 31/60
+    assert nmea.dm_to_deg("3351.9876", "S") == pytest.approx(-33.86646, abs=1e-12)  # -(33 + 51.9876/60)
+    assert nmea.dm_to_deg("15112.3456", "W") == pytest.approx(-151.20576, abs=1e-12)
+    assert nmea.dm_to_deg("0007.5", "S") == pytest.approx(-0.125, abs=1e-15)
+    assert nmea.dm_to_deg("", "N") is None
+
+
+def test_invalid_fix_kept_and_gns_and_rmc_only(tmp_path):
+    p = write(
+        tmp_path,
+        [
+            "GPRMC,080000.0,V,,,,,,,010626,,,N",
+            "GPGGA,080000.0,,,,,0,00,,,M,,M,,",
+            "GPRMC,080001.0,V,,,,,,,010626,,",
+            "GNGNS,080002.0,4724.2940,N,01017.6700,E,RRN,20,0.6,912.35,47.85,1.0,0000",
+            "GNZDA,080003.0,01,06,2026,00,00",
+            "GNRMC,080004.0,A,4724.2940,N,01017.6700,E,1.0,90.0,010626,,,F",
+        ],
+    )
+    rec = nmea.read(p, Options())
+    assert len(rec.streams[0].t) == 5  # nothing dropped, ZDA's epoch included
+    assert col(rec, "gnss_fix") == [0, 0, 4, None, 5]  # GGA 0; RMC V -> 0; GNS R -> 4; RMC mode F -> 5
+    assert col(rec, "lat")[:2] == [None, None]
+    assert col(rec, "h") == [None, None, pytest.approx(960.2), None, None]
+
+
+def test_all_bad_is_an_error(tmp_path):
+    p = write(tmp_path, ["$GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*00"])
+    with pytest.raises(InputError, match="1 with a bad or missing checksum"):
+        nmea.read(p, Options())
+
+
+def test_sniff():
+    assert nmea.sniff(Path("x.txt"), b"\r\n" + sentence("GPGGA,1,2").encode() + b"\r\n")
+    assert not nmea.sniff(Path("x.nmea"), b"$GPGGA,120000.0,4807.038,N\n")  # no checksum
+    assert not nmea.sniff(Path("x.gpx"), b'<?xml version="1.0"?><gpx version="1.1">')
+
+
+def _all_readers() -> None:
+    """Skip format sniffing while a sibling reader module of sportfusion.ingest is not written yet."""
+    for fmt in FORMATS:
+        if importlib.util.find_spec(f"sportfusion.ingest.{fmt}") is None:
+            pytest.skip(f"sportfusion.ingest.{fmt} is missing, so formats cannot be sniffed")
+
+
+@pytest.mark.parametrize("force", [[], ["--format", "nmea"]], ids=["sniffed", "forced"])
+def test_ingest_command_end_to_end(tmp_path, force):
+    if not force:
+        _all_readers()
+    log = write(tmp_path, MIXED, "gps.nmea")
+    out = tmp_path / "out.parquet"
+    with out.open("wb") as fh:
+        proc = subprocess.run([str(BIN / "ingest"), *force, str(log)], stdout=fh, stderr=subprocess.PIPE, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert b"Warning: ingest:" in proc.stderr and b"skipped 2 of 11" in proc.stderr
+    table, meta = sfio.read_table(out, kind="session")
+    assert table.num_rows == 2
+    for name in ("t", "lat", "lon", "h", "h_msl", "gnss_fix", "gnss_sigma_h", "vel_n", "vel_e"):
+        assert name in table.column_names
+    assert table.schema.field("h").metadata[b"unit"] == b"m"
+    assert table.column("gnss_fix").to_pylist() == [4, 5]
+    assert epoch_unix(meta) == calendar.timegm((2025, 3, 15, 10, 0, 0))
+    assert meta["sources"][0]["format"] == "nmea"
+
+
+@pytest.mark.parametrize("force", [[], ["--format", "nmea"]], ids=["sniffed", "forced"])
+def test_ingest_command_corrupt_file(tmp_path, force):
+    if not force:
+        _all_readers()
+    bad = tmp_path / "bad.nmea"
+    bad.write_text("$GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*00\n$GPRMC,garbage*11\n")
+    proc = subprocess.run([str(BIN / "ingest"), *force, str(bad)], capture_output=True, timeout=120)
+    assert proc.returncode == 1
+    assert proc.stdout == b""
+    lines = proc.stderr.decode().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: ingest:") and "checksum" in lines[0]
+
+
+def test_read_recording_sniffs_nmea(tmp_path):
+    _all_readers()
+    rec = read_recording(write(tmp_path, MIXED, "gps.log"))
+    assert rec.format == "nmea"
+
+
+def test_vtg_before_its_gga_lands_in_its_own_epoch(tmp_path):
+    p = write(
+        tmp_path,
+        [
+            "GPVTG,10.0,T,,M,1.0,N,,K,A",
+            "GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+            "GPVTG,20.0,T,,M,2.0,N,,K,A",
+            "GPGGA,120001.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
+        ],
+    )
+    rec = nmea.read(p, Options(date="2026-01-05"))
+    assert col(rec, "gnss_course") == [10.0, 20.0]
+    assert col(rec, "gnss_speed") == pytest.approx([KNOT, 2 * KNOT])
