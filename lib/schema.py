@@ -92,6 +92,7 @@ register("gnss_speed", F64, "m/s", "speed over ground as reported by the receive
 register("gnss_course", F64, "deg", "course over ground, clockwise from true north")
 register("gnss_age", F64, "s", "age of differential corrections")
 register("gnss_ratio", F64, "1", "ambiguity ratio-test value")
+register("rtk_q", I16, "1", "RTKLIB solution quality Q (1 fix, 2 float, 3 sbas, 4 dgps, 5 single, 6 ppp, 7 dr)")
 _xyz("gnss", "m", "GNSS position in the local frame")
 # estimates
 _xyz("", "m", "position in the local frame")
