@@ -45,7 +45,7 @@ def table_from_bytes(data: bytes, *, what: str = "input") -> pa.Table:
             f"{what} is not a Parquet file (no PAR1 magic); expected a table written by a sportfusion tool"
         )
     try:
-        return pq.read_table(_io.BytesIO(data))
+        return pq.read_table(_io.BytesIO(data), use_threads=False)
     except (pa.ArrowException, OSError) as exc:
         raise InputError(f"{what} is not a readable Parquet file ({exc})") from exc
 
