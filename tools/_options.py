@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any
 
 import click
+
+if TYPE_CHECKING:
+    from sportfusion.hillfile import Hill
 
 
 def parse_pairs(values: Iterable[str], option: str) -> dict[str, str]:
@@ -31,3 +35,48 @@ def parse_floats(text: str, n: int, option: str) -> list[float]:
     if len(vals) != n:
         raise click.BadParameter(f"{text!r} must be {n} comma-separated numbers", param_hint=option)
     return vals
+
+
+def hill_options(func: Callable[..., Any] | None = None, *, required: bool = False) -> Any:
+    """Add ``--hill NAME|FILE.toml`` and repeatable ``--hill-set KEY=VALUE`` to a command.
+
+    Use as ``@hill_options`` or ``@hill_options(required=True)``; the command
+    receives ``hill`` (str or None) and ``hill_set`` (tuple of str) and turns
+    them into a :class:`sportfusion.hillfile.Hill` with :func:`load_hill_option`.
+    """
+
+    def decorate(f: Callable[..., Any]) -> Callable[..., Any]:
+        f = click.option(
+            "--hill-set",
+            "hill_set",
+            multiple=True,
+            metavar="KEY=VALUE",
+            help="Override one hill value: a certificate parameter (lengths [m], angles [deg], e.g. e=95.5), "
+            "a site value (lat/lon [deg], height [m], azimuth_deg [deg], g0 [m/s^2]) or name. Repeatable.",
+        )(f)
+        return click.option(
+            "--hill",
+            "hill",
+            metavar="NAME|FILE.toml",
+            required=required,
+            help="Hill: a shipped name (e.g. oberstdorf_hs106) or a TOML hill file (certificate [m, deg], "
+            "take-off edge lat/lon [deg] and ellipsoidal height [m], azimuth [deg]).",
+        )(f)
+
+    return decorate if func is None else decorate(func)
+
+
+def load_hill_option(hill: str | None, hill_set: Iterable[str]) -> Hill | None:
+    """The :class:`sportfusion.hillfile.Hill` named by ``--hill`` with ``--hill-set`` applied, or None.
+
+    ``--hill-set`` without ``--hill`` is a usage error; a bad hill raises
+    :class:`sportfusion.errors.InputError` (exit 1).
+    """
+    overrides = parse_pairs(hill_set, "--hill-set")
+    if hill is None:
+        if overrides:
+            raise click.UsageError("--hill-set needs --hill NAME|FILE.toml")
+        return None
+    from sportfusion.hillfile import load_hill
+
+    return load_hill(hill, overrides)

@@ -1,0 +1,245 @@
+"""Quaternions, direction-cosine matrices and Euler angles (vectorised).
+
+Conventions (DESIGN.md, "Frames and conventions")
+-------------------------------------------------
+* Quaternions are scalar first, ``q = [q0, q1, q2, q3]``, Hamilton product.
+* The attitude quaternion ``q_BO`` maps local-level (NED) vectors into the
+  body frame exactly as eq 47 of the ski-jumping paper::
+
+      v_B = M_BO(q) v_O,
+      M_BO = [[q0²+q1²-q2²-q3², 2(q1q2+q0q3),    2(q1q3-q0q2)],
+              [2(q1q2-q0q3),    q0²-q1²+q2²-q3², 2(q2q3+q0q1)],
+              [2(q0q2+q1q3),    2(q2q3-q0q1),    q0²-q1²-q2²+q3²]]
+
+  ``M_BO`` is the transpose of the Hamilton rotation matrix of ``q``: the
+  quaternion rotates body vectors into NED (``q ⊗ v_B ⊗ q*``).  Chaining
+  frames: ``M_CO = M_CB M_BO`` corresponds to ``q_CO = q_BO ⊗ q_CB``.
+* Euler angles are z-y-x (yaw ``psi``, pitch ``theta``, roll ``phi``):
+  ``M_BO = R1(phi) R2(theta) R3(psi)`` with ``Ri`` the frame rotations, so yaw
+  is the azimuth from north of the body x axis (eqs 54-56 of the ski-jumping
+  paper, with ``atan2``).  Angles in radians.
+* A session's local frame has its x axis along ``azimuth_deg`` (clockwise from
+  north), y to the right, z down; :func:`local_to_ned` / :func:`ned_to_local`
+  is the one place that rotation is done.
+
+Every function accepts a single item (``(4,)``, ``(3,)``, ``(3, 3)``) or a
+stack with leading dimensions (``(..., 4)`` etc.) and broadcasts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "quat_normalize",
+    "quat_multiply",
+    "quat_conjugate",
+    "dcm_from_quat",
+    "quat_from_dcm",
+    "euler_from_quat",
+    "quat_from_euler",
+    "euler_from_dcm",
+    "dcm_from_euler",
+    "to_body",
+    "to_ned",
+    "quat_angle",
+    "quat_canonical",
+    "local_to_ned",
+    "ned_to_local",
+]
+
+
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    """Unit quaternion(s) ``q / |q|`` (shape ``(..., 4)``)."""
+    q = np.asarray(q, dtype=float)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_canonical(q: np.ndarray) -> np.ndarray:
+    """The same rotation with a non-negative scalar part (``q`` and ``-q`` are one attitude)."""
+    q = np.asarray(q, dtype=float)
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of scalar-first quaternions (broadcasts over ``...``)."""
+    p = np.asarray(p, dtype=float)
+    q = np.asarray(q, dtype=float)
+    p0, p1, p2, p3 = np.moveaxis(p, -1, 0)
+    q0, q1, q2, q3 = np.moveaxis(q, -1, 0)
+    return np.stack(
+        (
+            p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0,
+        ),
+        axis=-1,
+    )
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    """Conjugate ``[q0, -q1, -q2, -q3]`` (the inverse rotation for a unit quaternion)."""
+    q = np.asarray(q, dtype=float)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def dcm_from_quat(q: np.ndarray) -> np.ndarray:
+    """``M_BO`` of eq 47 (NED -> body) from ``q_BO``; shape ``(..., 3, 3)``.
+
+    The quaternion need not be exactly unit: it is normalised first.
+    """
+    q0, q1, q2, q3 = np.moveaxis(quat_normalize(q), -1, 0)
+    m = np.empty(q0.shape + (3, 3))
+    m[..., 0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    m[..., 0, 1] = 2 * (q1 * q2 + q0 * q3)
+    m[..., 0, 2] = 2 * (q1 * q3 - q0 * q2)
+    m[..., 1, 0] = 2 * (q1 * q2 - q0 * q3)
+    m[..., 1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
+    m[..., 1, 2] = 2 * (q2 * q3 + q0 * q1)
+    m[..., 2, 0] = 2 * (q0 * q2 + q1 * q3)
+    m[..., 2, 1] = 2 * (q2 * q3 - q0 * q1)
+    m[..., 2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    return m
+
+
+def quat_from_dcm(m: np.ndarray) -> np.ndarray:
+    """``q_BO`` (scalar part >= 0) from ``M_BO`` (NED -> body), Shepperd's method.
+
+    Shepperd's method picks, per matrix, the largest of the four squared
+    components to divide by, so it is accurate for every rotation.
+    """
+    m = np.asarray(m, dtype=float)
+    # M_BO is the transpose of the Hamilton rotation matrix R(q): work on R.
+    r = np.swapaxes(m, -1, -2)
+    tr = r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2]
+    cand = np.stack((tr, r[..., 0, 0], r[..., 1, 1], r[..., 2, 2]), axis=-1)
+    k = np.argmax(cand, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the unused cases may divide by ~0
+        # case 0: q0 largest
+        s = np.sqrt(np.maximum(1.0 + tr, 0.0)) * 2
+        c0 = np.stack(
+            (
+                0.25 * s,
+                (r[..., 2, 1] - r[..., 1, 2]) / s,
+                (r[..., 0, 2] - r[..., 2, 0]) / s,
+                (r[..., 1, 0] - r[..., 0, 1]) / s,
+            ),
+            axis=-1,
+        )
+        s1 = np.sqrt(np.maximum(1.0 + r[..., 0, 0] - r[..., 1, 1] - r[..., 2, 2], 0.0)) * 2
+        c1 = np.stack(
+            (
+                (r[..., 2, 1] - r[..., 1, 2]) / s1,
+                0.25 * s1,
+                (r[..., 0, 1] + r[..., 1, 0]) / s1,
+                (r[..., 0, 2] + r[..., 2, 0]) / s1,
+            ),
+            axis=-1,
+        )
+        s2 = np.sqrt(np.maximum(1.0 + r[..., 1, 1] - r[..., 0, 0] - r[..., 2, 2], 0.0)) * 2
+        c2 = np.stack(
+            (
+                (r[..., 0, 2] - r[..., 2, 0]) / s2,
+                (r[..., 0, 1] + r[..., 1, 0]) / s2,
+                0.25 * s2,
+                (r[..., 1, 2] + r[..., 2, 1]) / s2,
+            ),
+            axis=-1,
+        )
+        s3 = np.sqrt(np.maximum(1.0 + r[..., 2, 2] - r[..., 0, 0] - r[..., 1, 1], 0.0)) * 2
+        c3 = np.stack(
+            (
+                (r[..., 1, 0] - r[..., 0, 1]) / s3,
+                (r[..., 0, 2] + r[..., 2, 0]) / s3,
+                (r[..., 1, 2] + r[..., 2, 1]) / s3,
+                0.25 * s3,
+            ),
+            axis=-1,
+        )
+        q = np.where((k == 0)[..., None], c0, np.where((k == 1)[..., None], c1, np.where((k == 2)[..., None], c2, c3)))
+    return quat_canonical(quat_normalize(q))
+
+
+def euler_from_dcm(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(roll, pitch, yaw) [rad] from ``M_BO`` (z-y-x; eqs 54-56 with ``atan2``).
+
+    Roll and yaw are in (-pi, pi], pitch in [-pi/2, pi/2].
+    """
+    m = np.asarray(m, dtype=float)
+    roll = np.arctan2(m[..., 1, 2], m[..., 2, 2])
+    pitch = np.arcsin(np.clip(-m[..., 0, 2], -1.0, 1.0))
+    yaw = np.arctan2(m[..., 0, 1], m[..., 0, 0])
+    return roll, pitch, yaw
+
+
+def euler_from_quat(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(roll, pitch, yaw) [rad] of ``q_BO``; yaw is the azimuth from north."""
+    return euler_from_dcm(dcm_from_quat(q))
+
+
+def dcm_from_euler(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """``M_BO = R1(roll) R2(pitch) R3(yaw)`` [angles in rad]; shape ``(..., 3, 3)``."""
+    return dcm_from_quat(quat_from_euler(roll, pitch, yaw))
+
+
+def quat_from_euler(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """``q_BO`` from z-y-x Euler angles [rad] (the inverse of :func:`euler_from_quat`)."""
+    roll, pitch, yaw = np.broadcast_arrays(
+        np.asarray(roll, dtype=float), np.asarray(pitch, dtype=float), np.asarray(yaw, dtype=float)
+    )
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    q = np.stack(
+        (
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        ),
+        axis=-1,
+    )
+    return quat_canonical(q)
+
+
+def to_body(q: np.ndarray, v_ned: np.ndarray) -> np.ndarray:
+    """Rotate NED vector(s) into the body frame: ``M_BO(q) v`` (shapes ``(...,4)``, ``(...,3)``)."""
+    return np.einsum("...ij,...j->...i", dcm_from_quat(q), np.asarray(v_ned, dtype=float))
+
+
+def to_ned(q: np.ndarray, v_body: np.ndarray) -> np.ndarray:
+    """Rotate body vector(s) into NED: ``M_BO(q)^T v``."""
+    return np.einsum("...ji,...j->...i", dcm_from_quat(q), np.asarray(v_body, dtype=float))
+
+
+def quat_angle(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Rotation angle [rad] between two attitudes, in [0, pi] (sign of ``q`` ignored).
+
+    Computed as ``2 atan2(|vec(d)|, |d0|)`` with ``d = q1* ⊗ q2``, accurate for
+    small angles too.
+    """
+    d = quat_multiply(quat_conjugate(quat_normalize(q1)), quat_normalize(q2))
+    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+
+
+def _rot_z(azimuth_deg: float) -> np.ndarray:
+    a = np.deg2rad(azimuth_deg)
+    c, s = np.cos(a), np.sin(a)
+    # NED components of the local axes: x along the azimuth, y to its right, z down
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def local_to_ned(v_local: np.ndarray, azimuth_deg: float) -> np.ndarray:
+    """Local-frame vector(s) ``(..., 3)`` -> NED, for a frame whose x axis points to ``azimuth_deg``.
+
+    ``n = x cos(az) - y sin(az)``, ``e = x sin(az) + y cos(az)``, ``d = z``.
+    Attitude angles follow: roll and pitch are the same in both frames, and
+    the yaw w.r.t. north is the local yaw plus the azimuth.
+    """
+    return np.asarray(v_local, dtype=float) @ _rot_z(azimuth_deg).T
+
+
+def ned_to_local(v_ned: np.ndarray, azimuth_deg: float) -> np.ndarray:
+    """NED vector(s) ``(..., 3)`` -> local frame whose x axis points to ``azimuth_deg`` (inverse of :func:`local_to_ned`)."""
+    return np.asarray(v_ned, dtype=float) @ _rot_z(azimuth_deg)

@@ -1,0 +1,107 @@
+"""Quaternion / DCM / Euler conventions (skijump eqs 47, 54-56), against scipy's Rotation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from sportfusion import rotations as R
+
+RNG = np.random.default_rng(7)
+Q = R.quat_normalize(RNG.standard_normal((500, 4)))
+
+
+def eq47(q: np.ndarray) -> np.ndarray:
+    """M_BO written out exactly as printed in the ski-jumping paper (eq 47)."""
+    q0, q1, q2, q3 = q
+    return np.array(
+        [
+            [q0**2 + q1**2 - q2**2 - q3**2, 2 * (q1 * q2 + q0 * q3), 2 * (q1 * q3 - q0 * q2)],
+            [2 * (q1 * q2 - q0 * q3), q0**2 - q1**2 + q2**2 - q3**2, 2 * (q2 * q3 + q0 * q1)],
+            [2 * (q0 * q2 + q1 * q3), 2 * (q2 * q3 - q0 * q1), q0**2 - q1**2 - q2**2 + q3**2],
+        ]
+    )
+
+
+def test_dcm_is_eq47_and_scipy_transpose():
+    m = R.dcm_from_quat(Q)
+    for i in range(20):
+        np.testing.assert_allclose(m[i], eq47(Q[i]), atol=1e-14)
+    # scipy (scalar last) gives the active body->NED rotation; M_BO is its transpose
+    ref = Rotation.from_quat(Q[:, [1, 2, 3, 0]]).as_matrix()
+    np.testing.assert_allclose(m, np.swapaxes(ref, 1, 2), atol=1e-14)
+
+
+def test_dcm_quat_round_trip_including_half_turns():
+    special = np.array([[0.0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [1e-9, 0.6, 0.8, 0], [0.0, 0.5, 0.5, np.sqrt(0.5)]])
+    q = np.vstack([Q, R.quat_normalize(special)])
+    back = R.quat_from_dcm(R.dcm_from_quat(q))
+    np.testing.assert_allclose(back, R.quat_canonical(q), atol=1e-12)
+
+
+def test_euler_matches_eqs_54_56_and_scipy_zyx():
+    roll, pitch, yaw = R.euler_from_quat(Q)
+    q0, q1, q2, q3 = Q.T
+    np.testing.assert_allclose(roll, np.arctan2(2 * (q2 * q3 + q0 * q1), q0**2 - q1**2 - q2**2 + q3**2), atol=1e-12)
+    np.testing.assert_allclose(pitch, np.arcsin(-2 * (q1 * q3 - q0 * q2)), atol=1e-12)
+    np.testing.assert_allclose(yaw, np.arctan2(2 * (q1 * q2 + q0 * q3), q0**2 + q1**2 - q2**2 - q3**2), atol=1e-12)
+    ypr = Rotation.from_quat(Q[:, [1, 2, 3, 0]]).as_euler("ZYX")
+    np.testing.assert_allclose(np.column_stack((yaw, pitch, roll)), ypr, atol=1e-10)
+
+
+def test_euler_round_trip_and_yaw_is_azimuth():
+    roll = RNG.uniform(-np.pi, np.pi, 200)
+    pitch = RNG.uniform(-1.5, 1.5, 200)
+    yaw = RNG.uniform(-np.pi, np.pi, 200)
+    q = R.quat_from_euler(roll, pitch, yaw)
+    np.testing.assert_allclose(np.column_stack(R.euler_from_quat(q)), np.column_stack((roll, pitch, yaw)), atol=1e-10)
+    # a level body with yaw psi: its x axis points to azimuth psi, i.e. north = (cos psi, -sin psi, 0) in the body
+    psi = 0.7
+    north_b = R.to_body(R.quat_from_euler(0.0, 0.0, psi), [1.0, 0.0, 0.0])
+    np.testing.assert_allclose(north_b, [np.cos(psi), -np.sin(psi), 0.0], atol=1e-15)
+    # positive pitch raises the nose: gravity (down) has a negative body-x component... of -sin(theta)*(-g)
+    g_b = R.to_body(R.quat_from_euler(0.0, 0.3, 0.0), [0.0, 0.0, 9.81])
+    np.testing.assert_allclose(g_b, [-9.81 * np.sin(0.3), 0.0, 9.81 * np.cos(0.3)], atol=1e-12)
+
+
+def test_multiply_composes_frames():
+    p, q = Q[:100], Q[100:200]
+    # q_CO = q_BO ⊗ q_CB  <=>  M_CO = M_CB M_BO
+    lhs = R.dcm_from_quat(R.quat_multiply(p, q))
+    rhs = R.dcm_from_quat(q) @ R.dcm_from_quat(p)
+    np.testing.assert_allclose(lhs, rhs, atol=1e-13)
+    r = Q[200:300]
+    np.testing.assert_allclose(
+        R.quat_multiply(R.quat_multiply(p, q), r), R.quat_multiply(p, R.quat_multiply(q, r)), atol=1e-14
+    )
+    ident = R.quat_multiply(p, R.quat_conjugate(p))
+    np.testing.assert_allclose(ident, np.tile([1.0, 0, 0, 0], (100, 1)), atol=1e-14)
+
+
+def test_rotate_round_trip_and_broadcast():
+    v = RNG.standard_normal((500, 3))
+    np.testing.assert_allclose(R.to_ned(Q, R.to_body(Q, v)), v, atol=1e-13)
+    one = R.to_body(Q, np.array([0.0, 0.0, 1.0]))  # one vector, many attitudes
+    assert one.shape == (500, 3)
+    np.testing.assert_allclose(np.linalg.norm(one, axis=1), 1.0, atol=1e-14)
+
+
+def test_quat_angle():
+    axis = np.array([0.0, 0.6, 0.8])
+    for ang in (1e-7, 0.01, 1.0, 3.0):
+        dq = np.r_[np.cos(ang / 2), np.sin(ang / 2) * axis]
+        q2 = R.quat_multiply(Q[:50], dq)
+        np.testing.assert_allclose(R.quat_angle(Q[:50], q2), ang, rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(R.quat_angle(Q[:50], -q2), ang, rtol=1e-9, atol=1e-15)  # sign ignored
+
+
+@pytest.mark.parametrize("az", [0.0, 90.0, 160.0, -35.0])
+def test_local_ned_frame(az):
+    x_local = np.array([1.0, 0.0, 0.0])
+    ned = R.local_to_ned(x_local, az)
+    np.testing.assert_allclose(ned, [np.cos(np.radians(az)), np.sin(np.radians(az)), 0.0], atol=1e-15)
+    y_ned = R.local_to_ned([0.0, 1.0, 0.0], az)  # y is to the right: azimuth + 90
+    np.testing.assert_allclose(y_ned, [np.cos(np.radians(az + 90)), np.sin(np.radians(az + 90)), 0.0], atol=1e-15)
+    v = RNG.standard_normal((10, 3))
+    np.testing.assert_allclose(R.ned_to_local(R.local_to_ned(v, az), az), v, atol=1e-14)

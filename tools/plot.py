@@ -1,0 +1,111 @@
+"""``plot``: PNG/SVG figures -- ``plot hill`` (a profile) and ``plot track`` (a session over its hill)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+from sportfusion import __version__
+from sportfusion import io as sfio
+from sportfusion.errors import InputError
+from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import hill_options, load_hill_option
+
+
+def _image_path(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    from sportfusion.plots import figure_format
+
+    try:
+        figure_format(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc)) from exc
+    return value
+
+
+def _image_options(f: Any) -> Any:
+    f = click.option(
+        "--dpi",
+        type=click.FloatRange(10, 1200),
+        default=150,
+        show_default=True,
+        help="PNG resolution [dots per inch] (SVG is vector).",
+    )(f)
+    f = click.option("--title", default=None, help="Figure title (default: the hill's name).")(f)
+    return click.option(
+        "-o",
+        "--output",
+        required=True,
+        type=click.Path(dir_okay=False, writable=True),
+        callback=_image_path,
+        help="Image file to write; the suffix picks the format: .png or .svg.",
+    )(f)
+
+
+@tool(
+    "plot hill",
+    reads_table=False,
+    writes_table=False,
+    example="""
+  plot hill --hill oberstdorf_hs106 -o oberstdorf.png
+  plot hill --hill my_hill.toml --hill-set rL=230 -o my_hill.svg""",
+)
+@hill_options(required=True)
+@_image_options
+def hill_cmd(tool: Tool, hill: str, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float) -> None:
+    """Draw a hill's longitudinal profile (in-run, landing hill, out-run) with
+    its key points A B E1 E2 T F P K L U, in the hill frame [m]."""
+    from sportfusion.plots import figure_format, hill_figure, render
+
+    the_hill = load_hill_option(hill, hill_set)
+    fig = hill_figure(the_hill.profile, title or the_hill.name)
+    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.info(f"wrote {output}")
+
+
+@tool(
+    "plot track",
+    writes_table=False,
+    example="""
+  ingest run.zip track.nmea | gps2hill --hill oberstdorf_hs106 | plot track -o jump.png
+  plot track smoothed.parquet -o jump.svg --hill oberstdorf_hs106""",
+)
+@hill_options
+@_image_options
+def track_cmd(
+    tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
+) -> None:
+    """Draw a session's GNSS points (gnss_x gnss_y gnss_z [m]) and any
+    estimated x y z [m] with a 1-sigma band (std_z, std_y) in side and top
+    view, over the hill profile: --hill, else the hill recorded by gps2hill."""
+    from sportfusion.plots import figure_format, profile_from_meta, render, track_figure
+
+    table, meta = tool.read(kind=("session", "truth"))
+    the_hill = load_hill_option(hill, hill_set)
+    if the_hill is not None:
+        profile, name = the_hill.profile, the_hill.name
+    else:
+        profile, name = profile_from_meta(meta), (meta.get("hill") or {}).get("name", "")
+    fig = track_figure(table, meta, profile, title or name)
+    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.info(f"wrote {output}")
+
+
+@click.group(
+    name="plot",
+    epilog="\b\nExample:\n  plot hill --hill oberstdorf_hs106 -o hill.png\n"
+    "  ingest run.zip | gps2hill --hill oberstdorf_hs106 | plot track -o track.svg",
+)
+@click.version_option(__version__, "--version", prog_name="plot", message="%(prog)s (sportfusion) %(version)s")
+def main() -> None:
+    """PNG/SVG figures (format from the -o suffix): `plot hill` draws a hill
+    profile, `plot track` a session over it.  Needs matplotlib (the `plot`
+    extra)."""
+
+
+main.add_command(hill_cmd, name="hill")
+main.add_command(track_cmd, name="track")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
