@@ -22,3 +22,6 @@ def main() -> None:
 
 
 # Subcommands (each helper adds one line here):
+main.add_command(__import__("sportfusion.tools.simulate_skirace", fromlist=["main"]).main, "skirace")
+main.add_command(__import__("sportfusion.tools.simulate_skijump", fromlist=["main"]).main, "skijump")
+main.add_command(__import__("sportfusion.tools.simulate_boulder", fromlist=["main"]).main, "boulder")

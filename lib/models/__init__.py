@@ -1,0 +1,1 @@
+"""State-space models for the estimators (continuous-time kinematics, measurement functions)."""

@@ -1,0 +1,181 @@
+"""``detect-events``: events from the IMU, one kind per run (``--kind``).
+
+Each kind has a runner ``(table, meta, options) -> (table, meta, message)`` in
+``RUNNERS`` and its own options, whose help starts with the kind's name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import click
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.climbing.grips import GripParams, grip_columns
+from sportfusion.events import JumpParams, detect_jump_events
+from sportfusion.session import with_columns
+from sportfusion.tools._cli import Tool, tool
+
+
+def _grips(table: pa.Table, meta: dict[str, Any], o: dict[str, Any]) -> tuple[pa.Table, dict[str, Any], str]:
+    params = GripParams(
+        window=o["window"],
+        threshold=o["threshold"],
+        mean_threshold=o["mean_threshold"],
+        acc_threshold=o["acc_threshold"],
+        acc_limit=o["acc_limit"],
+        gyr_limit=float(np.deg2rad(o["gyr_limit"])),
+        world_frame=not o["body_frame"],
+    )
+    cols, counts = grip_columns(table, params)
+    msg = f"{counts['grips']} grips ({counts['grip_samples']} samples), {counts['saturated']} saturated samples"
+    return with_columns(table, cols), meta, msg
+
+
+def _jump(table: pa.Table, meta: dict[str, Any], o: dict[str, Any]) -> tuple[pa.Table, dict[str, Any], str]:
+    params = JumpParams(
+        min_speed=o["min_speed"],
+        min_separation=o["min_separation"],
+        touchdown_offset=o["touchdown_offset"],
+        max_separation=o["max_separation"],
+        min_peak=o["min_peak"],
+        max_flight_acc=o["max_flight_acc"],
+        max_gnss_gap=o["max_gnss_gap"],
+    )
+    table, summary, msg = detect_jump_events(table, params)
+    meta = {**meta, "events": [*(meta.get("events") or []), summary]}
+    return table, meta, msg
+
+
+#: kind -> runner; other kinds add their runner here and their options below.
+RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa.Table, dict[str, Any], str]]] = {
+    "grips": _grips,
+    "jump": _jump,
+}
+
+
+@tool(
+    "detect-events",
+    example="""
+  simulate boulder --seed 1 --holds holds.parquet | detect-events --kind grips > trial.parquet
+  detect-events --kind grips --window 17 --threshold 0.5 hand.parquet -o hand_grips.parquet
+  simulate skijump --seed 1 | detect-events --kind jump > jump.parquet
+  detect-events --kind jump --touchdown-offset 0.08 --min-peak 20 session.parquet -o events.parquet""",
+)
+@click.option(
+    "--kind",
+    type=click.Choice(sorted(RUNNERS)),
+    default="grips",
+    show_default=True,
+    help="Events to detect: grips (low-motion windows of a hand IMU -> columns grip, imu_saturated); "
+    "jump (ski-jump take-off and touch-down -> event rows, skijump Appendix A).",
+)
+@click.option(
+    "--window", default=28, show_default=True, type=click.IntRange(2, 100000), help="grips: moving window [samples]."
+)
+@click.option(
+    "--threshold",
+    default=GripParams.threshold,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="grips: largest summed per-axis standard deviation of the angular rate in a window [rad/s].",
+)
+@click.option(
+    "--mean-threshold",
+    default=GripParams.mean_threshold,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="grips: largest norm of the window's mean angular rate [rad/s] ('inf' switches it off).",
+)
+@click.option(
+    "--acc-threshold",
+    default=GripParams.acc_threshold,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="grips: largest summed per-axis standard deviation of the specific force [m/s^2] ('inf': off).",
+)
+@click.option(
+    "--acc-limit",
+    default=GripParams.acc_limit,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="grips: accelerometer range; a reading at or beyond it is a range violation [m/s^2].",
+)
+@click.option(
+    "--gyr-limit",
+    default=2000.0,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="grips: gyroscope range [deg/s].",
+)
+@click.option(
+    "--body-frame",
+    is_flag=True,
+    help="grips: use the angular rate in the sensor frame even when dev_q0..3 (sensor to world) is present [flag].",
+)
+@click.option(
+    "--min-speed",
+    default=JumpParams.min_speed,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="jump: GNSS speed above which a jump is searched [m/s].",
+)
+@click.option(
+    "--min-separation",
+    default=JumpParams.min_separation,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="jump: the take-off and landing peaks are more than this apart [s].",
+)
+@click.option(
+    "--touchdown-offset",
+    default=JumpParams.touchdown_offset,
+    show_default=True,
+    type=float,
+    help="jump: touch-down is this long before the landing peak [s].",
+)
+@click.option(
+    "--max-separation",
+    default=JumpParams.max_separation,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="jump: longest flight searched, peak to peak [s].",
+)
+@click.option(
+    "--min-peak",
+    default=JumpParams.min_peak,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="jump: both peaks reach at least this specific force [m/s^2].",
+)
+@click.option(
+    "--max-flight-acc",
+    default=JumpParams.max_flight_acc,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="jump: largest median specific force between the peaks, i.e. in flight [m/s^2] ('inf': off).",
+)
+@click.option(
+    "--max-gnss-gap",
+    default=JumpParams.max_gnss_gap,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="jump: the GNSS speed is not interpolated across longer gaps [s].",
+)
+def main(tool: Tool, kind: str, **options: Any) -> None:
+    """Detect events in a session. grips: a moving window centred on each IMU
+    sample flags a grip when the angular rate (rotated to the world frame with
+    the device's own orientation dev_q0..3 when present) and the specific force
+    barely vary (climbing paper §III; the first and last window/2 samples are
+    never grips); samples at the sensor range are flagged imu_saturated.
+    jump: take-off = the earlier, touch-down = 0.05 s before the later of the two
+    largest specific-force peaks more than 1.5 s apart while the GNSS speed
+    exceeds 10 m/s (skijump Appendix A), per fast stretch, so several jumps are
+    each found; a stretch without two peaks and a flight between them gets no
+    events, with the reason on stderr."""
+    table, meta = tool.read()
+    table, meta, message = RUNNERS[kind](table, meta, options)
+    tool.info(message)
+    tool.write(table, meta)

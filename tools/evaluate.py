@@ -1,0 +1,89 @@
+"""``evaluate``: an estimate against the simulated truth, in the layout of the ski-jump paper's Table 6."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from sportfusion import io as sfio
+from sportfusion import meta as sfmeta
+from sportfusion.evaluate import check_estimate, evaluate, format_text, summary_meta, summary_table
+from sportfusion.tools._cli import Tool, _is_tty, tool
+
+
+@tool(
+    "evaluate",
+    writes_table=False,
+    example="""
+  simulate skijump --seed 1 --truth truth.parquet | gps2hill --hill oberstdorf_hs106 \\
+      | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > est.parquet
+  evaluate est.parquet --truth truth.parquet --format text
+  evaluate est.parquet --truth truth.parquet -o summary.parquet
+  gps2hill s.parquet --hill oberstdorf_hs106 | evaluate --truth truth.parquet --gnss --format text""",
+    input_help="Estimate table (Parquet, e.g. rts-smooth output); default: standard input.",
+)
+@click.option(
+    "--truth",
+    "truth_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Truth table written by simulate (--truth FILE); required.",
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["parquet", "text"]),
+    default="parquet",
+    show_default=True,
+    help="parquet: a summary table; text: a readable table (angles in deg).",
+)
+@click.option(
+    "--gnss",
+    is_flag=True,
+    help="Evaluate the GNSS measurements (gnss_x/y/z [m], vel_n/e/d [m/s]) instead of the estimate columns.",
+)
+@click.option(
+    "--max-event-dt",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(min=0.0),
+    help="An estimated event further than this from the true one is not matched [s].",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Output file (summary table or text), written atomically; default: standard output.",
+)
+def main(tool: Tool, truth_path: str | None, fmt: str, gnss: bool, max_event_dt: float, output: str | None) -> None:
+    """Compare an estimate (x y z and vx vy vz in the hill frame, q0..q3 or
+    roll pitch yaw, events) with the truth of a simulated session: RMS, mean and
+    maximum absolute error of position (hill frame), velocity (NED), Euler
+    angles and the attitude rotation angle, overall and per phase (in-run up to
+    the take-off, flight, out-run from the touch-down), like Table 6 of the
+    ski-jump paper; take-off/touch-down timing errors and the jump-length error
+    when both sides have a jump length. Writes a summary table (angles in rad)
+    or, with --format text, a readable table (angles in deg)."""
+    if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
+        raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
+    est, est_meta = tool.read(kind="session")
+    check_estimate(est, gnss)
+    if truth_path is None:
+        raise click.UsageError("--truth FILE is required: the truth table written by simulate --truth")
+    truth, truth_meta = sfio.read_table(truth_path, kind="truth", what=f"truth file {truth_path}")
+    ev = evaluate(est, est_meta, truth, truth_meta, gnss=gnss, max_event_dt=max_event_dt)
+    if fmt == "text":
+        what = "GNSS measurements" if gnss else "estimate"
+        text = format_text(ev, f"{what} vs truth ({truth_path}); errors = {what} - truth")
+        sfio.write_bytes(text.encode(), output)
+        return
+    meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
+    for key in ("frame", "hill"):
+        if key in est_meta:
+            meta[key] = est_meta[key]
+    meta["evaluation"] = summary_meta(ev)
+    meta["provenance"] = list(est_meta.get("provenance", []))
+    tool.output = output
+    tool.write(summary_table(ev), meta)

@@ -1,0 +1,199 @@
+"""``simulate skijump``: a ski jump with known truth and the paper's sensor error models."""
+
+from __future__ import annotations
+
+import click
+
+from sportfusion import io as sfio
+from sportfusion import meta as sfmeta
+from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump, write_raw
+from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
+
+DEFAULT_HILL = "oberstdorf_hs106"
+
+
+@tool(
+    "simulate skijump",
+    reads_table=False,
+    example="""
+  simulate skijump --seed 1 --truth truth.parquet > session.parquet
+  simulate skijump --hill oberstdorf_hs106 --distance 92 --seed 4 --raw raw/ -o session.parquet
+  simulate skijump --hill willingen_hs145 --origin 51.2905,8.6048,640 --azimuth 200 --seed 2 > s.parquet
+  simulate skijump --seed 3 --height-error 4,30 --outage 14,16 --truth t.parquet | detect-events --kind jump > e.parquet""",
+)
+@hill_options
+@click.option(
+    "--origin",
+    default=None,
+    metavar="LAT,LON,H",
+    help="Take-off edge (frame origin): latitude [deg], longitude [deg], ellipsoidal height [m]; "
+    "needed for hills without a site.",
+)
+@click.option("--azimuth", type=float, default=None, help="Hill azimuth psi_N, north -> hill x axis, clockwise [deg].")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
+@click.option(
+    "--distance",
+    type=click.FloatRange(min=1.0),
+    default=None,
+    help="Jump length along the landing profile from F [m]; default: drawn around the K point.",
+)
+@click.option(
+    "--gate",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Start gate [number, 1 = lowest]; default: the gate that suits the distance.",
+)
+@click.option(
+    "--truth",
+    "truth_path",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Write the truth table (kind truth, Parquet: true_ columns, events, jump_length) to this file.",
+)
+@click.option(
+    "--raw",
+    "raw_dir",
+    type=click.Path(file_okay=False, writable=True),
+    default=None,
+    help="Also write the raw files a user would ingest into this folder: phyphox.zip and gnss.nmea.",
+)
+@click.option(
+    "--start",
+    default=SkiJumpConfig.start,
+    show_default=True,
+    help="UTC time of t = 0 [ISO-8601]; sets the World Magnetic Model date.",
+)
+@click.option(
+    "--height-error",
+    default=None,
+    metavar="SIGMA,TAU",
+    help="Slowly varying GNSS height error: Gauss-Markov 1-sigma [m] and correlation time [s].",
+)
+@click.option(
+    "--outage",
+    "outages",
+    multiple=True,
+    metavar="START,END",
+    help="GNSS outage from START to END [s since t = 0]. Repeatable.",
+)
+@click.option(
+    "--lever-arm",
+    default="0,0,0",
+    show_default=True,
+    metavar="X,Y,Z",
+    help="GNSS antenna position relative to the IMU in the sensor (body) frame [m].",
+)
+@click.option("--no-noise", is_flag=True, help="Sensors without biases or noise (the truth values), for tests.")
+@click.option(
+    "--video",
+    "video_path",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Also film the landing with a fixed camera beside the landing slope into this .mp4 (mp4v); the marker "
+    "calibration goes beside it (landing.mp4 -> landing.markers.csv), the true touch-down frame into --truth.",
+)
+@click.option("--video-fps", type=click.FloatRange(25, 60), default=50.0, show_default=True, help="Frame rate [1/s].")
+@click.option("--video-size", default="1280x720", show_default=True, metavar="WxH", help="Video size [px].")
+@click.option(
+    "--video-focal",
+    type=float,
+    default=None,
+    help="35-mm equivalent focal length [mm]; default: a 26 m wide view at the touch-down point.",
+)
+@click.option(
+    "--video-camera",
+    default="nan,-38,8",
+    show_default=True,
+    metavar="S,Y,H",
+    help="Camera station along the landing profile [m from F; nan: beside the touch-down], lateral position "
+    "[m, negative: left looking downhill], lens height above the snow [m]; it aims at the touch-down point.",
+)
+@click.option("--video-noise", type=float, default=2.0, show_default=True, help="Sensor noise [grey levels, 1-sigma].")
+@click.option("--video-extras", is_flag=True, help="A person walking and flags waving behind the far side.")
+def main(
+    tool: Tool,
+    hill: str | None,
+    hill_set: tuple[str, ...],
+    origin: str | None,
+    azimuth: float | None,
+    seed: int,
+    distance: float | None,
+    gate: int | None,
+    truth_path: str | None,
+    raw_dir: str | None,
+    start: str,
+    height_error: str | None,
+    outages: tuple[str, ...],
+    lever_arm: str,
+    no_noise: bool,
+    video_path: str | None,
+    video_fps: float,
+    video_size: str,
+    video_focal: float | None,
+    video_camera: str,
+    video_noise: float,
+    video_extras: bool,
+) -> None:
+    """Simulate one ski jump on a hill (default: the paper's Oberstdorf HS106):
+    rest at a start gate, in-run along the profile with friction and air drag,
+    take-off impulse at the edge, flight with lift and drag, touch-down with the
+    landing impact, out-run, braking to a stop. The truth obeys the INS
+    kinematics of skijump eqs 44-46 exactly. Sensors (eqs 35-39): an
+    arm-mounted phone's gyroscope, accelerometer and magnetometer at 100 Hz
+    with Table 3 biases and Table 4-5 noise, GNSS lat/lon/h and NED velocity at
+    10 Hz (3/3/5 m, 0.1/0.1/0.3 m/s). The session goes to stdout; --truth gets
+    the true_ columns, the take-off/touch-down events and the jump length
+    (curve length of the landing profile from F to the skis' touch-down point)."""
+    extra = list(hill_set)
+    if origin is not None:
+        lat, lon, h = parse_floats(origin, 3, "--origin")
+        extra += [f"lat={lat!r}", f"lon={lon!r}", f"height={h!r}"]
+    if azimuth is not None:
+        extra.append(f"azimuth_deg={azimuth!r}")
+    the_hill = load_hill_option(hill or DEFAULT_HILL, extra)
+    cfg = SkiJumpConfig(
+        seed=seed,
+        distance=distance,
+        gate=gate,
+        start=sfmeta.format_epoch(start) or start,
+        height_error=tuple(parse_floats(height_error, 2, "--height-error")) if height_error else None,  # type: ignore[arg-type]
+        outages=[tuple(parse_floats(o, 2, "--outage")) for o in outages],  # type: ignore[misc]
+        lever_arm=tuple(parse_floats(lever_arm, 3, "--lever-arm")),  # type: ignore[arg-type]
+        noise=not no_noise,
+    )
+    sim = simulate_skijump(the_hill, cfg)
+    sj = sim.truth_meta["skijump"]
+    tool.info(
+        f"{the_hill.name}: gate {sj['gate']:g}, take-off {sj['times']['takeoff']:.2f} s at "
+        f"{sj['figures']['takeoff_speed']:.1f} m/s, touch-down {sj['times']['touchdown']:.2f} s, "
+        f"jump length {sim.truth_meta['jump_length']:.2f} m; {sim.session.num_rows} rows"
+    )
+    if video_path:
+        from sportfusion.video.render import RenderOptions, render_simulated
+
+        size = video_size.lower().split("x")
+        if len(size) != 2 or not all(v.strip().isdigit() for v in size):
+            raise click.BadParameter(f"{video_size!r} is not WIDTHxHEIGHT in pixels", param_hint="--video-size")
+        cam = parse_floats(video_camera, 3, "--video-camera")
+        vopts = RenderOptions(
+            width=int(size[0]),
+            height=int(size[1]),
+            fps=video_fps,
+            focal_35mm=video_focal,
+            camera=(cam[0], cam[1], cam[2]),
+            noise=video_noise,
+            person=video_extras,
+            flags=video_extras,
+            seed=seed,
+        )
+        video = render_simulated(video_path, sim.truth, sim.truth_meta, the_hill.profile, vopts, tool.progress)
+        sim.truth_meta["video"] = video
+        sim.truth_meta["touchdown_frame"] = video["touchdown_frame"]
+        tool.info(f"wrote {video_path} and {video['markers']}: touch-down in frame {video['touchdown_frame']}")
+    if truth_path:
+        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+    if raw_dir:
+        for path in write_raw(sim, raw_dir):
+            tool.info(f"wrote {path}")
+    tool.write(sim.session, sim.session_meta)
