@@ -1,0 +1,127 @@
+"""``dmc-attitude``: attitude per sample from a digital magnetic compass and GNSS (skiracing-splines eqs 8-9)."""
+
+from __future__ import annotations
+
+import click
+
+from sportfusion.dmc import dmc_table
+from sportfusion.session import with_columns
+from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import parse_floats
+
+
+@tool(
+    "dmc-attitude",
+    example="""
+  simulate skirace --seed 1 | spline-smooth | dmc-attitude > attitude.parquet
+  dmc-attitude session.parquet --site 46.49,9.84,2200 --lowpass 3 -o attitude.parquet
+  dmc-attitude xsens.parquet --dip-from-data --mag-weight 0.5 > attitude.parquet""",
+)
+@click.option(
+    "--site",
+    default=None,
+    metavar="LAT,LON,H",
+    help="Site for gravity and the magnetic model [deg, deg, m ellipsoidal]; default: lat/lon/h columns or the frame origin.",
+)
+@click.option(
+    "--date",
+    default=None,
+    metavar="YYYY-MM-DD",
+    help="Date for the magnetic model [UTC ISO-8601]; default: the session's time.epoch_utc.",
+)
+@click.option(
+    "--mag-ref",
+    default=None,
+    metavar="N,E,D",
+    help="Reference magnetic field in NED [uT, or any unit: only its direction is used] instead of the model.",
+)
+@click.option(
+    "--dip-from-data",
+    is_flag=True,
+    help="Estimate the magnetic inclination [deg] from quiet samples instead of the model.",
+)
+@click.option(
+    "--g0",
+    type=float,
+    default=None,
+    help="Gravity [m/s^2]; default: WGS84 normal gravity at the site (or the hill's g0).",
+)
+@click.option(
+    "--acc-weight",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="Wahba weight of the specific-force vector [1].",
+)
+@click.option(
+    "--mag-weight",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="Wahba weight of the magnetic vector [1].",
+)
+@click.option(
+    "--lowpass",
+    "lowpass_hz",
+    default=5.0,
+    show_default=True,
+    type=click.FloatRange(0),
+    help="Zero-phase low-pass cut-off for the raw DMC channels [Hz]; 0: none.",
+)
+@click.option(
+    "--coriolis", is_flag=True, help="Include the Coriolis and transport-rate terms of eq 9 (needs vx vy vz) [m/s^2]."
+)
+@click.option(
+    "--free-fall",
+    default=2.0,
+    show_default=True,
+    type=click.FloatRange(0),
+    help="|specific force| below this flags dmc_singular [m/s^2].",
+)
+def main(
+    tool: Tool,
+    site: str | None,
+    date: str | None,
+    mag_ref: str | None,
+    dip_from_data: bool,
+    g0: float | None,
+    acc_weight: float,
+    mag_weight: float,
+    lowpass_hz: float,
+    coriolis: bool,
+    free_fall: float,
+) -> None:
+    """Attitude on every accelerometer row from the magnetometer and the specific
+    force (a digital magnetic compass) by Wahba's problem solved with QUEST.
+    References in NED: the field from the World Magnetic Model at the site and
+    date (or --mag-ref, or --dip-from-data), and f = a - g (eq 9) with the GNSS
+    acceleration ax ay az from spline-smooth; without it, low dynamics (f = -g).
+
+    Adds q0..q3 (q_BO, NED to body, scalar first), roll pitch yaw [rad] (yaw =
+    azimuth from north), quest_loss (Wahba loss, 0 = consistent), dmc_singular
+    (near free fall or field parallel to f) and ax_dmc ay_dmc az_dmc, the
+    kinematic acceleration re-estimated from the specific force through the
+    attitude, in the local frame."""
+    table, meta = tool.read()
+    result = dmc_table(
+        table,
+        meta,
+        site=tuple(parse_floats(site, 3, "--site")) if site else None,  # type: ignore[arg-type]
+        date=date,
+        mag_ref=parse_floats(mag_ref, 3, "--mag-ref") if mag_ref else None,
+        dip_from_data=dip_from_data,
+        g0=g0,
+        weight_acc=acc_weight,
+        weight_mag=mag_weight,
+        lowpass_hz=lowpass_hz,
+        coriolis=coriolis,
+        free_fall=free_fall,
+    )
+    for w in result.warnings:
+        tool.warn(w)
+    i = result.info
+    tool.info(
+        f"{i['rows']} attitude rows at {i['rate_hz']:.1f} Hz, {i['singular']} singular; magnetic reference "
+        f"{i['mag_ref_source']} (inclination {i['inclination_deg']:.2f} deg, declination {i['declination_deg']:.2f} deg)"
+    )
+    tool.write(with_columns(table, result.columns), meta)
