@@ -1,0 +1,81 @@
+"""Batched SO(3) helpers for the climbing estimators (rotation matrices and rotation vectors).
+
+Exp/Log go through :class:`scipy.spatial.transform.Rotation` (robust near 0 and pi);
+the right Jacobians are the closed forms of Barfoot's *State Estimation for
+Robotics* (eqs 7.77 and 7.80), with series expansions for small angles.
+Quaternions in this package are scalar first (scipy is asked for that explicitly).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+_SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
+
+
+def hat(v: np.ndarray) -> np.ndarray:
+    """Skew-symmetric matrices ``[v]x`` of vectors ``v`` (..., 3) -> (..., 3, 3)."""
+    v = np.asarray(v, dtype=np.float64)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
+def exp(phi: np.ndarray) -> np.ndarray:
+    """Rotation matrices from rotation vectors ``phi`` [rad] (..., 3) -> (..., 3, 3)."""
+    phi = np.asarray(phi, dtype=np.float64)
+    return Rotation.from_rotvec(phi.reshape(-1, 3)).as_matrix().reshape(phi.shape[:-1] + (3, 3))
+
+
+def log(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors [rad] of rotation matrices ``r`` (..., 3, 3) -> (..., 3)."""
+    r = np.asarray(r, dtype=np.float64)
+    return Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec().reshape(r.shape[:-2] + (3,))
+
+
+def _coeffs(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    th = np.linalg.norm(phi, axis=-1)
+    small = th < _SMALL
+    ts = np.where(small, 1.0, th)
+    return th, small, ts, hat(phi)
+
+
+def jr(phi: np.ndarray) -> np.ndarray:
+    """Right Jacobian of SO(3): ``Exp(phi + d) ~ Exp(phi) Exp(Jr(phi) d)``."""
+    th, small, ts, k = _coeffs(np.asarray(phi, dtype=np.float64))
+    a = np.where(small, 0.5, (1.0 - np.cos(ts)) / ts**2)
+    b = np.where(small, 1.0 / 6.0, (ts - np.sin(ts)) / ts**3)
+    return np.eye(3) - a[..., None, None] * k + b[..., None, None] * (k @ k)
+
+
+def jr_inv(phi: np.ndarray) -> np.ndarray:
+    """Inverse right Jacobian: ``Log(Exp(phi) Exp(d)) ~ phi + Jr^-1(phi) d``."""
+    th, small, ts, k = _coeffs(np.asarray(phi, dtype=np.float64))
+    c = np.where(small, 1.0 / 12.0, 1.0 / ts**2 - (1.0 + np.cos(ts)) / (2.0 * ts * np.sin(np.where(small, 1.0, ts))))
+    return np.eye(3) + 0.5 * k + c[..., None, None] * (k @ k)
+
+
+def quat_from_matrix(r: np.ndarray) -> np.ndarray:
+    """Scalar-first unit quaternions (w >= 0) of rotation matrices (..., 3, 3) -> (..., 4)."""
+    r = np.asarray(r, dtype=np.float64)
+    q = Rotation.from_matrix(r.reshape(-1, 3, 3)).as_quat(scalar_first=True)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return q.reshape(r.shape[:-2] + (4,))
+
+
+def matrix_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices of scalar-first quaternions (..., 4) -> (..., 3, 3)."""
+    q = np.asarray(q, dtype=np.float64)
+    return Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(q.shape[:-1] + (3, 3))
+
+
+def axis_rotation(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v`` ((3,) or (..., 3)) about the unit ``axis`` (3,) by ``angle`` [rad] (...) (Rodrigues)."""
+    angle = np.asarray(angle, dtype=np.float64)[..., None]
+    c, s = np.cos(angle), np.sin(angle)
+    v = np.asarray(v, dtype=np.float64)
+    kv = v @ hat(axis).T  # axis x v
+    return v * c + kv * s + (v @ axis)[..., None] * axis * (1.0 - c)

@@ -1,0 +1,348 @@
+"""Domain sampling (§III-B): particle filter over position and yaw error, and its smoother.
+
+Particle (eq 16): position ``p`` [m] in the map frame and yaw error ``psi`` [rad] about the
+map's up axis.  Dynamic model (eq 17), with the errata (Sigma_P scales with dT)::
+
+    p_k = p_k-1 + Rot_up(psi) (v*_k-1 + v*_k) / 2 dT + e_p,   e_p ~ N(0, Sigma_v,k-1 dT)
+    psi_k = psi_k-1 + e_psi,                                 e_psi ~ N(0, yaw_psd dT)
+
+where ``v*`` and ``Sigma_v`` are the transition estimator's velocities and their covariance
+(the trapezoid equals eq 6's ``dT v + dT^2 a / 2``).  At every detected grip sample the
+weights are multiplied by the grip likelihood (eq 18) ``max(h, c_e)`` with
+``h = max_i h_i`` (eq 22) and the ball-plus-Gaussian-tail hold model (eqs 20-21)::
+
+    h_i = N(0; 0, s^2 I)                             if |d| < r
+          N((1 - r/|d|) d; 0, s^2 I)                 else,      d = p - p_i
+
+and ``c_e = N(0; 0, s^2 I) exp(-k^2 / 2)`` -- the "elsewhere" level is the tail's value
+``k`` standard deviations outside the ball (the paper's implementation parametrises it so).
+Maxima, not sums (errata): each particle scores its best explanation.  Every particle
+remembers the hold of its best explanation at the last grip (-1: elsewhere); particles
+with the same label form a cluster, and the output is the weighted mean of the most
+likely cluster.  Systematic resampling when the effective sample size drops below
+half the particles.  The PF starts at the first grip, with the particles split evenly
+between the route's two start holds.
+
+The smoother is the forward-filtering backward-smoothing (FFBSm) marginal smoother of
+Doucet and Johansen (the paper's [18], as in its implementation): with the filter's
+weights ``w_k`` and the Gaussian transition density ``f`` of the model above,
+``w_k|N(i) ~ w_k(i) sum_j w_k+1|N(j) f(x_k+1(j) | x_k(i)) / sum_l w_k(l) f(x_k+1(j) | x_k(l))``,
+O(M^2) per step, evaluated with one whitened matrix product per step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sportfusion.errors import InputError
+
+ELSEWHERE = -1
+
+
+@dataclass(frozen=True)
+class HoldModel:
+    """Grip likelihood (eqs 18-22).
+
+    Attributes
+    ----------
+    radius : float
+        r, radius of the uniform ball around a hold centre [m].
+    sigma : float
+        Standard deviation of the Gaussian tails, Sigma_h = sigma^2 I [m].
+    elsewhere_sigmas : float
+        c_e is the tail's density this many sigmas outside the ball.
+    """
+
+    radius: float = 0.10
+    sigma: float = 0.05
+    elsewhere_sigmas: float = 3.0
+
+    @property
+    def log_peak(self) -> float:
+        """log N(0; 0, sigma^2 I) in 3-D [log 1/m^3]."""
+        return -1.5 * np.log(2 * np.pi * self.sigma**2)
+
+    @property
+    def log_elsewhere(self) -> float:
+        """log c_e (eq 19)."""
+        return self.log_peak - 0.5 * self.elsewhere_sigmas**2
+
+
+def hold_log_likelihood(p: np.ndarray, centre: np.ndarray, model: HoldModel | None = None) -> np.ndarray:
+    """log h_i of eq 20 for positions ``p`` (..., 3) [m] and one hold centre (3,)."""
+    m = model or HoldModel()
+    d = np.linalg.norm(np.asarray(p, dtype=np.float64) - centre, axis=-1)
+    excess = np.maximum(d - m.radius, 0.0)  # |(1 - r/|d|) d| outside the ball
+    return m.log_peak - 0.5 * (excess / m.sigma) ** 2
+
+
+def grip_log_likelihood(
+    p: np.ndarray, centres: np.ndarray, ids: np.ndarray, model: HoldModel | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """log of eq 18 (max over holds and elsewhere) and the label of the best explanation.
+
+    Parameters
+    ----------
+    p : numpy.ndarray, shape (m, 3)
+        Particle positions [m].
+    centres : numpy.ndarray, shape (h, 3)
+        Hold centres [m].
+    ids : numpy.ndarray, shape (h,)
+        Hold numbers.
+
+    Returns
+    -------
+    loglik : numpy.ndarray (m,)
+    label : numpy.ndarray (m,) of int
+        Hold number of the best hold, or -1 where "elsewhere" wins.
+    """
+    m = model or HoldModel()
+    # nearest centre (isotropic Sigma_h: the largest h_i is the nearest hold): argmin |c|^2 - 2 p.c
+    score = p @ (-2.0 * centres.T)
+    score += (centres * centres).sum(axis=1)
+    best = np.argmin(score, axis=1)
+    d2 = score[np.arange(p.shape[0]), best] + (p * p).sum(axis=1)
+    d = np.sqrt(np.maximum(d2, 0.0))
+    peak, other = m.log_peak, m.log_elsewhere
+    logh = peak - 0.5 * (np.maximum(d - m.radius, 0.0) / m.sigma) ** 2
+    at_hold = logh > other
+    return np.where(at_hold, logh, other), np.where(at_hold, ids[best], ELSEWHERE)
+
+
+@dataclass(frozen=True)
+class PFParams:
+    """Particle filter settings.
+
+    Attributes
+    ----------
+    particles : int
+        M (200 in the paper).
+    yaw_psd : float
+        Yaw-error random walk [rad^2/s] (Sigma_P's 0.09, times dT).
+    start_sigma : float
+        1-sigma of the initial positions around the start holds [m].
+    start_yaw_sigma : float
+        1-sigma of the initial yaw error [rad].
+    ess_fraction : float
+        Resample when ESS < this fraction of M.
+    hold : HoldModel
+    """
+
+    particles: int = 200
+    yaw_psd: float = 0.09
+    start_sigma: float = float(np.sqrt(0.001))
+    start_yaw_sigma: float = 0.05
+    ess_fraction: float = 0.5
+    hold: HoldModel = HoldModel()
+
+
+@dataclass
+class PFResult:
+    """Per-sample outputs of :func:`run_particle_filter` (NaN / -2 before the first grip).
+
+    ``pos`` (n, 3) [m], ``label`` (n,) the most likely cluster's hold (-1 elsewhere),
+    ``prob`` (n,) its probability, ``yaw`` (n,) its mean yaw error [rad] -- for the
+    filter and (``smooth_*``) the smoother; ``k0`` the first grip sample; ``resamples``.
+    """
+
+    k0: int
+    pos: np.ndarray
+    label: np.ndarray
+    prob: np.ndarray
+    yaw: np.ndarray
+    smooth_pos: np.ndarray | None
+    smooth_label: np.ndarray | None
+    smooth_prob: np.ndarray | None
+    smooth_yaw: np.ndarray | None
+    resamples: int
+
+
+def _clusters(w: np.ndarray, lab: np.ndarray, pos: np.ndarray, psi: np.ndarray) -> tuple[np.ndarray, int, float, float]:
+    """Mean position, label, probability and mean yaw of the most likely cluster."""
+    sums = np.bincount(lab + 1, weights=w)  # labels are hold numbers >= 0 or -1
+    j = int(np.argmax(sums))
+    sel = lab == j - 1
+    ws = w[sel] / sums[j]
+    return ws @ pos[sel], j - 1, float(sums[j]), float(ws @ psi[sel])
+
+
+class _Model:
+    """Eq 17 per step k -> k+1: the displacement at zero yaw error and the noise factors."""
+
+    def __init__(self, t: np.ndarray, v: np.ndarray, cov_v: np.ndarray, up: np.ndarray, yaw_psd: float) -> None:
+        dt = np.diff(t)
+        self.step = 0.5 * (v[1:] + v[:-1]) * dt[:, None]  # trapezoid = dT v + dT^2 a / 2 (eq 6)
+        self.kstep = np.cross(up, self.step)  # up x step
+        self.ustep = (self.step @ up)[:, None] * up  # component along up
+        self.chol = np.linalg.cholesky(cov_v[:-1] + 1e-12 * np.eye(3)) * np.sqrt(dt)[:, None, None]
+        self.yaw_sigma = np.sqrt(yaw_psd * dt)
+
+    def predict(self, k: int, pos: np.ndarray, psi: np.ndarray) -> np.ndarray:
+        """Noise-free eq 17 for particles at k: ``pos + Rot_up(psi) step_k``."""
+        c, s = np.cos(psi)[:, None], np.sin(psi)[:, None]
+        return pos + self.step[k] * c + self.kstep[k] * s + self.ustep[k] * (1.0 - c)
+
+
+def _systematic(w: np.ndarray, u0: float) -> np.ndarray:
+    m = w.size
+    u = (u0 + np.arange(m)) / m
+    c = np.cumsum(w)
+    c[-1] = 1.0
+    return np.minimum(np.searchsorted(c, u), m - 1)
+
+
+def run_particle_filter(
+    t: np.ndarray,
+    v: np.ndarray,
+    cov_v: np.ndarray,
+    grip: np.ndarray,
+    route_holds: tuple[np.ndarray, np.ndarray],
+    start_holds: tuple[np.ndarray, np.ndarray],
+    up: np.ndarray,
+    wall_holds: tuple[np.ndarray, np.ndarray] | None = None,
+    descent_time: float | None = None,
+    params: PFParams | None = None,
+    seed: int = 0,
+    smooth: bool = True,
+) -> PFResult:
+    """Particle filter (and smoother) over position and yaw error, driven by transition velocities.
+
+    Parameters
+    ----------
+    t : numpy.ndarray (n,)
+        Sample times [s].
+    v, cov_v : numpy.ndarray (n, 3), (n, 3, 3)
+        Transition velocities [m/s] and their covariance [(m/s)^2] in the map frame.
+    grip : numpy.ndarray of bool (n,)
+        Detected grips.
+    route_holds, wall_holds : (ids (h,), centres (h, 3) [m])
+        Holds used during the ascent / after ``descent_time`` (all holds of the wall).
+    start_holds : (ids (2,), centres (2, 3) [m])
+    up : numpy.ndarray (3,)
+        Map up axis (yaw is about it).
+    descent_time : float, optional
+        From this time [s] grips are matched against ``wall_holds``.
+    params : PFParams, optional
+    seed : int
+        Seed of the generator for the process noise, the initial spread and the resampling.
+    smooth : bool
+        Also run the FFBSm smoother.
+    """
+    p = params or PFParams()
+    n = t.size
+    if not grip.any():
+        raise InputError("no grips in the trial; the particle filter starts at the first grip (detect-events)")
+    if p.particles < 2:
+        raise InputError(f"{p.particles} particles; expected at least 2")
+    rng = np.random.default_rng(seed)
+    m = p.particles
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    k0 = int(np.argmax(grip))
+    dt = np.diff(t)
+    model = _Model(t, v, cov_v, up, p.yaw_psd)
+    r_ids, r_pos = (np.asarray(a) for a in route_holds)
+    w_ids, w_pos = (np.asarray(a) for a in (wall_holds or route_holds))
+    s_ids, s_pos = (np.asarray(a) for a in start_holds)
+    late = np.zeros(n, dtype=bool) if descent_time is None else t >= descent_time
+
+    which = np.arange(m) % s_ids.size
+    pos = s_pos[which] + rng.normal(0.0, p.start_sigma, (m, 3))
+    psi = rng.normal(0.0, p.start_yaw_sigma, m)
+    lab = s_ids[which].astype(np.int64)
+    w = np.full(m, 1.0 / m)
+    hist_pos = np.empty((n, m, 3))
+    hist_psi = np.empty((n, m))
+    hist_w = np.empty((n, m))
+    hist_lab = np.empty((n, m), dtype=np.int64)
+    out_pos = np.full((n, 3), np.nan)
+    out_lab = np.full(n, -2, dtype=np.int64)
+    out_prob = np.full(n, np.nan)
+    out_yaw = np.full(n, np.nan)
+    resamples = 0
+    # all process noise up front: one draw, scaled per step, plus the step's along-up part
+    nk = max(n - 1 - k0, 0)
+    add_pos = rng.standard_normal((nk, m, 3)) @ np.swapaxes(model.chol[k0 : n - 1], 1, 2)
+    add_pos += model.ustep[k0 : n - 1, None, :]
+    add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
+    u_res = rng.random(n)
+    horiz = model.step - model.ustep
+    dirty = True  # the cluster membership must be recomputed
+    for k in range(k0, n):
+        if k > k0:
+            j = k - 1
+            pos = pos + add_pos[j - k0] + np.outer(np.cos(psi), horiz[j]) + np.outer(np.sin(psi), model.kstep[j])
+            psi = psi + add_psi[j - k0]
+        if grip[k]:
+            ids, centres = (w_ids, w_pos) if late[k] else (r_ids, r_pos)
+            ll, lab = grip_log_likelihood(pos, centres, ids, p.hold)
+            with np.errstate(divide="ignore"):
+                lw = np.log(w) + ll
+            w = np.exp(lw - lw.max())
+            w /= w.sum()
+            dirty = True
+        hist_pos[k], hist_psi[k], hist_w[k], hist_lab[k] = pos, psi, w, lab
+        if dirty:  # weights or labels changed: the most likely cluster again
+            sums = np.bincount(lab + 1, weights=w)  # labels are hold numbers >= 0 or -1
+            best = int(np.argmax(sums))
+            sel = lab == best - 1
+            wsel = w[sel] / sums[best]
+            prob = float(sums[best])
+            dirty = False
+        out_pos[k], out_yaw[k] = wsel @ pos[sel], wsel @ psi[sel]
+        out_lab[k], out_prob[k] = best - 1, prob
+        if grip[k] and 1.0 / (w @ w) < p.ess_fraction * m:
+            idx = _systematic(w, u_res[k])
+            pos, psi, lab = pos[idx], psi[idx], lab[idx]
+            w = np.full(m, 1.0 / m)
+            resamples += 1
+            dirty = True
+    res = PFResult(k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples)
+    if smooth:
+        ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
+        sp = np.full((n, 3), np.nan)
+        sl = np.full(n, -2, dtype=np.int64)
+        sprob = np.full(n, np.nan)
+        syaw = np.full(n, np.nan)
+        for k in range(k0, n):
+            sp[k], sl[k], sprob[k], syaw[k] = _clusters(ws[k], hist_lab[k], hist_pos[k], hist_psi[k])
+        res.smooth_pos, res.smooth_label, res.smooth_prob, res.smooth_yaw = sp, sl, sprob, syaw
+    return res
+
+
+def _ffbsm(pos: np.ndarray, psi: np.ndarray, w: np.ndarray, model: _Model, k0: int) -> np.ndarray:
+    """Smoothed weights (n, m) by FFBSm; rows before ``k0`` are left undefined.
+
+    Per step the transition density is evaluated in whitened coordinates (centred on the
+    particles at k+1, then float32) with one matrix product; buffers are reused.
+    """
+    n, m = w.shape
+    ws = np.empty_like(w)
+    ws[-1] = w[-1]
+    big = np.empty((m, m), dtype=np.float32)
+    col = np.empty(m, dtype=np.float32)
+    a = np.empty((m, 4))
+    b = np.empty((m, 4))
+    for k in range(n - 2, k0 - 1, -1):
+        linv = np.linalg.inv(model.chol[k])
+        sy = 1.0 / model.yaw_sigma[k]
+        centre = pos[k + 1].mean(axis=0)
+        a[:, :3] = (model.predict(k, pos[k], psi[k]) - centre) @ linv.T
+        b[:, :3] = (pos[k + 1] - centre) @ linv.T
+        c_psi = psi[k + 1].mean()
+        a[:, 3] = (psi[k] - c_psi) * sy
+        b[:, 3] = (psi[k + 1] - c_psi) * sy
+        a32, b32 = a.astype(np.float32), b.astype(np.float32)
+        with np.errstate(divide="ignore"):
+            rowterm = (np.log(w[k]) - 0.5 * (a * a).sum(axis=1)).astype(np.float32)
+        np.matmul(a32, b32.T, out=big)  # log f(j | i) + log w_i = a.b - |a|^2/2 - |b|^2/2 + log w_i
+        big += rowterm[:, None]
+        big -= big.max(axis=0)[None, :]  # the |b|^2 term is constant per column: it cancels here
+        np.maximum(big, np.float32(-60.0), out=big)  # exp's underflow path is ~10x slower
+        np.exp(big, out=big)  # e_ij = w_i f(j | i) / max_l (w_l f(j | l))
+        big.sum(axis=0, out=col)
+        new = (big @ (ws[k + 1] / col).astype(np.float32)).astype(np.float64)
+        total = new.sum()
+        ws[k] = new / total if np.isfinite(total) and total > 0 else w[k]
+    return ws

@@ -1,0 +1,148 @@
+"""Hold likelihood (eqs 18-22), resampling, the particle filter and the FFBSm smoother."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+from sportfusion.climbing import particles as pf
+from sportfusion.climbing.particles import HoldModel, PFParams, grip_log_likelihood, hold_log_likelihood
+
+MODEL = HoldModel(radius=0.1, sigma=0.05, elsewhere_sigmas=3.0)
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@pytest.mark.parametrize(
+    "delta",
+    [[0.0, 0.0, 0.0], [0.05, -0.05, 0.05], [0.099, 0.0, 0.0], [0.12, 0.0, 0.0], [0.1, 0.2, -0.1], [0.0, 0.0, 0.4]],
+)
+def test_hold_likelihood_is_eq_20(delta):
+    centre = np.array([1.0, 0.2, 2.5])
+    d = np.array(delta)
+    gauss = multivariate_normal(np.zeros(3), MODEL.sigma**2 * np.eye(3))
+    nd = np.linalg.norm(d)
+    expected = gauss.pdf(np.zeros(3)) if nd < MODEL.radius else gauss.pdf((1 - MODEL.radius / nd) * d)
+    assert np.isclose(np.exp(hold_log_likelihood(centre + d, centre, MODEL)), expected, rtol=1e-12)
+
+
+def test_grip_likelihood_takes_the_maximum_over_holds_and_elsewhere():
+    centres = np.array([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0], [0.0, 0.0, 2.0]])
+    ids = np.array([3, 7, 11])
+    p = np.array([[0.44, 0.0, 1.02], [0.0, 0.0, 1.13], [2.0, 0.0, 1.0], [0.25, 0.0, 1.5]])
+    ll, lab = grip_log_likelihood(p, centres, ids, MODEL)
+    each = np.array([[hold_log_likelihood(q, c, MODEL) for c in centres] for q in p])
+    log_ce = np.log(multivariate_normal(np.zeros(3), MODEL.sigma**2 * np.eye(3)).pdf(np.zeros(3))) - 4.5
+    assert np.isclose(MODEL.log_elsewhere, log_ce)
+    assert np.allclose(ll, np.maximum(each.max(axis=1), log_ce))
+    assert lab.tolist() == [7, 3, -1, -1]
+
+
+def test_systematic_resampling_keeps_the_expected_counts():
+    rng = np.random.default_rng(0)
+    w = rng.random(50) ** 3
+    w /= w.sum()
+    for u0 in (0.0, 0.37, 0.999):
+        counts = np.bincount(pf._systematic(w, u0), minlength=50)
+        assert counts.sum() == 50
+        assert (counts >= np.floor(50 * w) - 1e-9).all() and (counts <= np.ceil(50 * w) + 1e-9).all()
+
+
+def test_ffbsm_matches_the_formula_evaluated_naively():
+    rng = np.random.default_rng(3)
+    n, m = 6, 5
+    t = np.arange(n) * 0.02
+    v = rng.normal(0, 0.5, (n, 3))
+    cov = np.array([np.diag(rng.uniform(2, 4, 3)) for _ in range(n)])
+    model = pf._Model(t, v, cov, UP, 0.09)
+    pos = rng.normal(0, 0.4, (n, m, 3))
+    psi = rng.normal(0, 0.08, (n, m))
+    w = rng.random((n, m))
+    w /= w.sum(axis=1, keepdims=True)
+    got = pf._ffbsm(pos, psi, w, model, 0)
+    ref = np.empty_like(w)
+    ref[-1] = w[-1]
+    for k in range(n - 2, -1, -1):
+        q = np.zeros((4, 4))
+        q[:3, :3] = model.chol[k] @ model.chol[k].T
+        q[3, 3] = model.yaw_sigma[k] ** 2
+        pred = model.predict(k, pos[k], psi[k])
+        f = np.array(
+            [
+                [multivariate_normal(np.r_[pred[i], psi[k, i]], q).pdf(np.r_[pos[k + 1, j], psi[k + 1, j]]) for j in range(m)]
+                for i in range(m)
+            ]
+        )
+        norm = w[k] @ f
+        new = w[k] * (f @ (ref[k + 1] / norm))
+        ref[k] = new / new.sum()
+    assert np.allclose(got, ref, rtol=2e-4, atol=1e-7)
+
+
+def _ladder(seed: int = 0):
+    """Start holds 0 (x=0) and 1 (x=0.5); the hand starts at 0, climbs to 2 then 3 above hold 0."""
+    centres = np.array([[0.0, 0.0, 1.2], [0.5, 0.0, 1.2], [0.05, 0.0, 1.8], [-0.1, 0.0, 2.4]])
+    ids = np.array([0, 1, 2, 3])
+    dt = 0.02
+    knots = [(0, 1.0), (2, 1.0), (3, 1.0)]
+    t_list, p_list, g_list = [], [], []
+    t0 = 0.0
+    for i, (h, dur) in enumerate(knots):
+        tg = t0 + np.arange(0, dur, dt)
+        t_list.append(tg)
+        p_list.append(np.repeat(centres[h][None] + [0, -0.05, 0], tg.size, axis=0))
+        g_list.append(np.ones(tg.size, bool))
+        t0 = tg[-1] + dt
+        if i + 1 < len(knots):
+            tm = t0 + np.arange(0, 0.6, dt)
+            s = (tm - t0) / 0.6
+            sj = s**3 * (10 - 15 * s + 6 * s * s)
+            a, b = centres[h], centres[knots[i + 1][0]]
+            t_list.append(tm)
+            p_list.append(a + [0, -0.05, 0] + sj[:, None] * (b - a))
+            g_list.append(np.zeros(tm.size, bool))
+            t0 = tm[-1] + dt
+    t = np.concatenate(t_list)
+    p = np.concatenate(p_list)
+    grip = np.concatenate(g_list)
+    v = np.gradient(p, t, axis=0)
+    cov = np.repeat((0.03**2 * np.eye(3))[None], t.size, axis=0)
+    return t, p, v, cov, grip, (ids, centres), (ids[:2], centres[:2])
+
+
+def test_filter_tracks_and_smoother_resolves_the_start_hold():
+    t, p, v, cov, grip, route, start = _ladder()
+    res = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=200), seed=1)
+    k0 = res.k0
+    assert k0 == 0 and res.resamples > 0
+    err = np.linalg.norm(res.smooth_pos - p, axis=1)
+    assert np.median(err) < 0.1
+    last = np.flatnonzero(grip)[-1]
+    assert res.label[last] == 3 and res.smooth_label[last] == 3
+    # at the start the filter cannot know which start hold; the smoother can
+    assert 0.2 < res.prob[0] < 0.8
+    assert res.smooth_label[0] == 0 and res.smooth_prob[0] > 0.95
+    assert np.linalg.norm(res.smooth_pos[0] - p[0]) < 0.1
+
+
+def test_same_seed_same_output_and_seed_matters():
+    t, p, v, cov, grip, route, start = _ladder()
+    a = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=50), seed=4)
+    b = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=50), seed=4)
+    c = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=50), seed=5)
+    assert np.array_equal(a.smooth_pos, b.smooth_pos) and np.array_equal(a.pos, b.pos)
+    assert not np.array_equal(a.pos, c.pos)
+
+
+def test_descent_switches_to_the_wall_holds():
+    t, p, v, cov, grip, route, start = _ladder()
+    ids, centres = route
+    # the route lacks hold 3: before the descent time the last grip is "elsewhere"
+    short = (ids[:3], centres[:3])
+    res = pf.run_particle_filter(t, v, cov, grip, short, start, UP, params=PFParams(particles=100), seed=0, smooth=False)
+    last = np.flatnonzero(grip)[-1]
+    assert res.label[last] == -1
+    res = pf.run_particle_filter(
+        t, v, cov, grip, short, start, UP, wall_holds=route, descent_time=t[last] - 0.5, seed=0, smooth=False
+    )
+    assert res.label[last] == 3

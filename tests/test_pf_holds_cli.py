@@ -1,0 +1,115 @@
+"""pf-holds command line: help, bad hold maps -> one clear line, determinism, output columns.
+
+Run in-process with click's CliRunner (see the report: pyarrow's threaded Parquet reader can
+abort the interpreter at exit, which would make subprocess runs flaky)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyarrow as pa
+import pytest
+from click.testing import CliRunner
+
+from sportfusion import io as sfio
+from sportfusion import schema
+from sportfusion.climbing.grips import grip_columns
+from sportfusion.session import with_columns
+from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.tools.pf_holds import main
+
+
+@pytest.fixture(scope="module")
+def trial(tmp_path_factory):
+    sim = simulate_boulder(BoulderConfig(seed=11, route_holds=10, imu_rate=60))
+    cols, _ = grip_columns(sim.session)
+    data = sfio.table_to_bytes(with_columns(sim.session, cols), sim.meta)
+    folder = tmp_path_factory.mktemp("pf")
+    holds = folder / "holds.parquet"
+    sfio.write_table(sim.holds, sim.holds_meta, holds)
+    return sim, data, folder, holds
+
+
+def _invoke(args: list[str], data: bytes):
+    res = CliRunner().invoke(main, args, input=data)
+    return res.exit_code, res.stdout_bytes, res.stderr
+
+
+def _one_line(code: int, out: bytes, err: str) -> str:
+    assert code == 1 and out == b""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: pf-holds: "), lines
+    assert "internal error" not in lines[0]
+    return lines[0]
+
+
+def test_help_has_units_and_example():
+    res = CliRunner().invoke(main, ["--help"])
+    assert res.exit_code == 0
+    for text in ("Example", "--holds", "--descent-after", "[s]", "[count]", "[m]", "[rad^2/s]", "--seed"):
+        assert text in res.output
+
+
+def test_same_seed_identical_output_and_columns(trial):
+    sim, data, folder, holds = trial
+    a = _invoke(["--holds", str(holds), "--seed", "3", "-q"], data)
+    b = _invoke(["--holds", str(holds), "--seed", "3", "-q"], data)
+    assert a[0] == 0, a[2]
+    assert a[1] == b[1]
+    path = folder / "est.parquet"
+    path.write_bytes(a[1])
+    table, meta = sfio.read_table(str(path))
+    for name in sim.session.column_names:
+        assert table.column(name).equals(sim.session.column(name))
+    assert table.column("hold_id").type == pa.int32()
+    assert meta["provenance"][-1]["tool"] == "pf-holds" and meta["provenance"][-1]["params"]["seed"] == 3
+    assert meta["frame"]["axes"].endswith("z up") and meta["climbing"]["up"] == "z"
+    grip = table.column("grip").to_numpy(zero_copy_only=False)
+    hold = table.column("hold_id")
+    assert hold.null_count == int((~grip).sum())  # one hold (or -1) per grip sample, null elsewhere
+    x = np.column_stack([schema.floats(table, a) for a in "xyz"])
+    p = np.column_stack([schema.floats(sim.truth, f"true_{a}") for a in "xyz"])
+    ok = np.isfinite(x[:, 0])
+    assert ok.mean() > 0.95
+    assert np.median(np.linalg.norm(x[ok] - p[ok], axis=1)) < 0.5  # a sane estimate, not an accuracy claim
+    prob = schema.floats(table, "cluster_prob")[ok]
+    assert ((prob > 0) & (prob <= 1 + 1e-12)).all()
+    c = _invoke(["--holds", str(holds), "--seed", "4", "-q"], data)
+    assert c[0] == 0 and c[1] != a[1]
+
+
+def _bad_map(sim, folder, name: str, *, drop_starts: bool = False, nan: bool = False):
+    table, meta = sim.holds, {**sim.holds_meta}
+    meta["climbing"] = dict(meta["climbing"])
+    if drop_starts:
+        meta["climbing"].pop("start_holds")
+    if nan:
+        x = schema.floats(table, "x").copy()
+        x[2] = np.nan
+        table = table.set_column(table.column_names.index("x"), "x", schema.to_arrow("x", x))
+    path = folder / name
+    sfio.write_table(table, meta, path)
+    return path
+
+
+def test_hold_map_without_start_holds_is_one_line(trial):
+    sim, data, folder, _ = trial
+    line = _one_line(*_invoke(["--holds", str(_bad_map(sim, folder, "nostart.parquet", drop_starts=True))], data))
+    assert "start holds" in line
+
+
+def test_hold_map_with_nan_position_is_one_line(trial):
+    sim, data, folder, _ = trial
+    line = _one_line(*_invoke(["--holds", str(_bad_map(sim, folder, "nan.parquet", nan=True))], data))
+    assert "NaN" in line and "row 2" in line
+
+
+def test_missing_hold_map_and_missing_grips_are_one_line(trial, tmp_path):
+    sim, data, folder, holds = trial
+    assert "--holds" in _one_line(*_invoke([], data))
+    assert "not-there" in _one_line(*_invoke(["--holds", str(tmp_path / "not-there.parquet")], data))
+    raw = sfio.table_to_bytes(sim.session, sim.meta)
+    assert "detect-events" in _one_line(*_invoke(["--holds", str(holds)], raw))
+    session_as_map = tmp_path / "session.parquet"
+    session_as_map.write_bytes(raw)
+    assert "holds" in _one_line(*_invoke(["--holds", str(session_as_map)], data))
+    assert "route" in _one_line(*_invoke(["--holds", str(holds), "--route", "nope"], data))

@@ -1,0 +1,119 @@
+"""``pf-holds``: climbing hand positions from IMU grips and a hold map (transition estimator + particle filter)."""
+
+from __future__ import annotations
+
+import click
+
+from sportfusion import schema
+from sportfusion.climbing.holds import read_holds
+from sportfusion.climbing.particles import HoldModel, PFParams
+from sportfusion.climbing.track import TrackOptions, track_holds
+from sportfusion.errors import InputError
+from sportfusion.session import with_columns
+from sportfusion.tools._cli import Tool, tool
+
+
+@tool(
+    "pf-holds",
+    example="""
+  simulate boulder --seed 1 --holds holds.parquet --truth truth.parquet \\
+    | detect-events --kind grips | pf-holds --holds holds.parquet > est.parquet
+  pf-holds --holds wall.parquet --route yellow --descent-after 41.5 --seed 3 trial.parquet -o est.parquet""",
+)
+@click.option(
+    "--holds",
+    "holds_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Hold map (kind holds: route, hold, x, y, z [m]; start holds, up axis and field in its metadata). Needed.",
+)
+@click.option("--route", default=None, help="Route climbed [name]; default: the session's climbing.route.")
+@click.option(
+    "--descent-after",
+    type=float,
+    default=None,
+    help="Time from which grips may be at any hold of the wall [s]; default: the session's climbing.descent_time.",
+)
+@click.option("--particles", default=200, show_default=True, type=click.IntRange(2, 100000), help="Particles [count].")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of the particle filter [integer].")
+@click.option(
+    "--smooth/--no-smooth",
+    default=True,
+    show_default=True,
+    help="Output the particle smoother (FFBSm) or the forward filter [flag].",
+)
+@click.option(
+    "--yaw-psd",
+    default=PFParams.yaw_psd,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="Random walk of the yaw error [rad^2/s].",
+)
+@click.option(
+    "--hold-radius",
+    default=HoldModel.radius,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="Radius of the uniform ball around a hold centre [m].",
+)
+@click.option(
+    "--hold-sigma",
+    default=HoldModel.sigma,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="Standard deviation of the Gaussian tails around the ball [m].",
+)
+@click.option(
+    "--elsewhere",
+    default=HoldModel.elsewhere_sigmas,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="Grip-elsewhere likelihood: the tail's value this far outside the ball [sigmas].",
+)
+def main(
+    tool: Tool,
+    holds_path: str | None,
+    route: str | None,
+    descent_after: float | None,
+    particles: int,
+    seed: int,
+    smooth: bool,
+    yaw_psd: float,
+    hold_radius: float,
+    hold_sigma: float,
+    elsewhere: float,
+) -> None:
+    """Estimate one hand's position on a climbing wall (climbing paper §III):
+    the whole trial as one least-squares problem with zero-velocity updates at the
+    detected grips gives transition velocities and their covariance; a particle
+    filter over position and yaw error, started at the route's two start holds,
+    matches every grip against the route's holds (all holds of the wall after the
+    descent time) and a particle smoother refines it. Adds x y z [m] and vx vy vz
+    [m/s] in the hold map's frame, hold_id at grips (-1: elsewhere) and
+    cluster_prob. Needs the columns grip (detect-events --kind grips) and
+    acc_*, gyr_*, mag_*."""
+    table, meta = tool.read()
+    schema.require_columns(
+        table,
+        tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz") + ("grip",),
+        "pf-holds (run `detect-events --kind grips` first)",
+    )
+    if holds_path is None:
+        raise InputError("no hold map given; expected --holds FILE (a holds table)")
+    holds = read_holds(holds_path)
+    opts = TrackOptions(
+        route=route,
+        descent_after=descent_after,
+        seed=seed,
+        smooth=smooth,
+        pf=PFParams(particles=particles, yaw_psd=yaw_psd, hold=HoldModel(hold_radius, hold_sigma, elsewhere)),
+    )
+    res = track_holds(table, meta, holds, opts)
+    for w in res.warnings:
+        tool.warn(w)
+    meta = dict(meta)
+    if "frame" in holds.meta:
+        meta["frame"] = holds.meta["frame"]
+    meta["climbing"] = {**(meta.get("climbing") or {}), "up": holds.meta["climbing"]["up"], "route": res.route}
+    tool.info(f"route {res.route}, {res.transition.iterations} solver iterations, {res.pf.resamples} resamplings")
+    tool.write(with_columns(table, res.columns), meta)

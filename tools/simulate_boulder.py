@@ -1,0 +1,82 @@
+"""``simulate boulder``: one hand's IMU + magnetometer on a bouldering wall, with truth and the hold map."""
+
+from __future__ import annotations
+
+import click
+
+from sportfusion import io as sfio
+from sportfusion import meta as sfmeta
+from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.tools._cli import Tool, tool
+
+
+@tool(
+    "simulate boulder",
+    reads_table=False,
+    example="""
+  simulate boulder --seed 1 --truth truth.parquet --holds holds.parquet > trial.parquet
+  simulate boulder --seed 2 --imu-rate 60 --route-holds 14 --holds holds.parquet -o trial.parquet
+  simulate boulder --seed 3 --holds holds.parquet | detect-events --kind grips | pf-holds --holds holds.parquet > est.parquet""",
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
+@click.option(
+    "--truth",
+    "truth_path",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Write the truth table (kind truth: true_x.. [m], true_vx.. [m/s], true_q0..3, true_grip, true_hold).",
+)
+@click.option(
+    "--holds",
+    "holds_path",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Write the wall's hold map (kind holds: route, hold, x, y, z [m]; start holds, up axis, field in the metadata).",
+)
+@click.option(
+    "--imu-rate",
+    default=100.0,
+    show_default=True,
+    type=click.FloatRange(60, 100),
+    help="IMU + magnetometer rate [Hz].",
+)
+@click.option(
+    "--route-holds",
+    default=None,
+    type=click.IntRange(10, 20),
+    help="Holds on the climbed route [count]; default: drawn from 10-20.",
+)
+@click.option(
+    "--duration",
+    default=None,
+    type=click.FloatRange(5, 600),
+    help="Stretch the grips so the trial lasts about this long [s]; default: natural grip times.",
+)
+def main(
+    tool: Tool,
+    seed: int,
+    truth_path: str | None,
+    holds_path: str | None,
+    imu_rate: float,
+    route_holds: int | None,
+    duration: float | None,
+) -> None:
+    """Simulate one bouldering trial of one hand: a 4-5 m wall with three routes
+    (the first is climbed: two start holds, a top hold), grips at holds (sometimes
+    off-centre, sometimes on the wall between holds, with grip adjustments) and
+    transitions of 0.3-2 s, a down-climb on any holds of the wall. Sensors on the
+    back of the hand: IMU and magnetometer (normalised, unit "1") with noise,
+    biases, scale errors, magnetic disturbances behind the wall and occasional
+    accelerometer range clipping, plus the unit's own orientation dev_q0..3
+    (sensor to world). Map frame: x right along the wall, y into the wall, z up."""
+    cfg = BoulderConfig(seed=seed, imu_rate=imu_rate, route_holds=route_holds, duration=duration)
+    sim = simulate_boulder(cfg)
+    if truth_path:
+        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+    if holds_path:
+        sfio.write_table(sim.holds, sfmeta.add_provenance(sim.holds_meta, tool.name, tool.params), holds_path)
+    tool.info(
+        f"{sim.session.num_rows} rows ({sim.session.column('t')[-1].as_py():.1f} s), route {sim.route}, "
+        f"start hold {sim.start_hold}, descent at {sim.descent_time:.1f} s"
+    )
+    tool.write(sim.session, sim.meta)
