@@ -148,6 +148,17 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+# batch summary (python -m sportfusion.batch)
+register("session", STR, "", "session name (its folder in a sessions folder)")
+register("sport", STR, "", "sport of a session: skijump, skirace, gates, climbing")
+register("status", STR, "", "outcome of a session's pipeline: ok or failed")
+register("error", STR, "", "the error line of a failed session")
+register("duration", F64, "s", "time span of a session's result table")
+register("max_speed", F64, "m/s", "largest estimated speed in a session")
+register("jumps", I64, "1", "number of jumps found in a session")
+register("video_jump_length", F64, "m", "jump length read from the landing video (video-jumplength)")
+register("pos_rms", F64, "m", "3-D RMS position error against the truth")
+register("vel_rms", F64, "m/s", "3-D RMS velocity error against the truth")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {

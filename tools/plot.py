@@ -9,7 +9,7 @@ import click
 from sportfusion import __version__
 from sportfusion import io as sfio
 from sportfusion.errors import InputError
-from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._cli import Group, Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option
 
 
@@ -92,6 +92,7 @@ def track_cmd(
 
 
 @click.group(
+    cls=Group,
     name="plot",
     epilog="\b\nExample:\n  plot hill --hill oberstdorf_hs106 -o hill.png\n"
     "  ingest run.zip | gps2hill --hill oberstdorf_hs106 | plot track -o track.svg",
