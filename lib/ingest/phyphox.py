@@ -106,19 +106,27 @@ def _looks_like_set(data: bytes) -> bool:
     return bool(cell) and split_header(cell)[0] in ("time", "t") and "(" in cell
 
 
+def _head(p: Path) -> bytes:
+    try:
+        with p.open("rb") as fh:
+            return fh.read(512)
+    except OSError:
+        return b""
+
+
 def sniff(path: Path, head: bytes) -> bool:
     """ZIP/folder with ``meta/time.csv`` or a set CSV, or one CSV whose first header is ``Time (s)``."""
     if path.is_dir():
         if (path / "meta" / "time.csv").is_file():
             return True
-        return any(_looks_like_set(p.read_bytes()[:512]) for p in sorted(path.glob("*.csv"))[:20])
+        return any(_looks_like_set(_head(p)) for p in sorted(path.glob("*.csv"))[:20])
     if head.startswith(b"PK\x03\x04"):
         try:
             with zipfile.ZipFile(path) as zf:
                 names = [n for n in zf.namelist() if n.lower().endswith(".csv")]
                 if any(n.endswith("meta/time.csv") for n in names):
                     return True
-                return any(_looks_like_set(zf.read(n)[:512]) for n in names[:20])
+                return any(_looks_like_set(zf.open(n).read(512)) for n in names[:20])
         except (zipfile.BadZipFile, OSError):
             return False
     return head.lstrip(b"\xef\xbb\xbf").startswith(b'"') and _looks_like_set(head)
