@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sportfusion.errors import InputError
 from sportfusion.ingest import Recording, combine, detect_format
@@ -53,3 +55,40 @@ def test_detect_format_errors(tmp_path):
         detect_format(empty)
     with pytest.raises(InputError, match="no such file"):
         detect_format(tmp_path / "missing.gpx")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.integers(1, 40),  # samples
+            st.sampled_from([0.01, 0.02, 0.1, 1 / 3, 0.0125]),  # step [s]
+            st.one_of(st.none(), st.floats(1.7e9, 1.7e9 + 100.0)),  # epoch [Unix s] or no clock
+            st.floats(-2.0, 2.0),  # --offset [s]
+        ),
+        min_size=1,
+        max_size=4,
+    )
+)
+def test_combine_of_random_recordings_loses_nothing(spec):
+    """Every sample of every recording lands on its own row at epoch shift + offset + its time."""
+    cols = ["acc_x", "gyr_x", "mag_x", "lat"]
+    recs, offsets = [], {}
+    for i, (n, dt, epoch, off) in enumerate(spec):
+        t = dt * np.arange(n)
+        recs.append(Recording(f"in{i}.csv", "csvmap", [Stream("s", t, {cols[i]: np.arange(n) + 100.0 * i})], epoch))
+        offsets[f"in{i}.csv"] = off
+    table, meta, _ = combine(recs, offsets)  # each input has its own column, so instants may coincide
+    t = table.column("t").to_numpy()
+    assert np.all(np.diff(t) > 0)
+    epochs = [e for _, _, e, _ in spec if e is not None]
+    origin = min(epochs) if epochs else None
+    assert (epoch_unix(meta) is None) == (origin is None)
+    for i, (n, dt, epoch, off) in enumerate(spec):
+        col = table.column(cols[i])
+        assert len(col) - col.null_count == n
+        present = col.is_valid().to_numpy(zero_copy_only=False)
+        shift = off + (epoch - origin if epoch is not None else 0.0)
+        np.testing.assert_allclose(t[present], shift + dt * np.arange(n), atol=1e-6)
+        np.testing.assert_array_equal(np.asarray(col.drop_null().to_numpy()), np.arange(n) + 100.0 * i)
+    assert [sum(s["samples"].values()) for s in meta["sources"]] == [n for n, *_ in spec]
