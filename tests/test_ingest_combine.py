@@ -92,3 +92,48 @@ def test_combine_of_random_recordings_loses_nothing(spec):
         np.testing.assert_allclose(t[present], shift + dt * np.arange(n), atol=1e-6)
         np.testing.assert_array_equal(np.asarray(col.drop_null().to_numpy()), np.arange(n) + 100.0 * i)
     assert [sum(s["samples"].values()) for s in meta["sources"]] == [n for n, *_ in spec]
+
+
+def test_every_format_is_claimed_by_its_own_sniffer_only(tmp_path):
+    """One small input per format; each sniffer claims exactly its own (csvmap claims none: it needs --map)."""
+    import importlib
+    import json
+
+    from sportfusion.ingest import FORMATS
+    from sportfusion.sim.rawfiles import nmea_sentence, write_phyphox_zip
+
+    write_phyphox_zip(tmp_path / "phone.zip", 1.7e9, {"Accelerometer": (np.arange(3) * 0.01, np.ones((3, 3)))})
+    (tmp_path / "gps.txt").write_text(
+        nmea_sentence("GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,") + "\r\n"
+    )
+    (tmp_path / "track.xml").write_text('<?xml version="1.0"?>\n<gpx version="1.1" creator="x"><trk/></gpx>\n')
+    (tmp_path / "rtk.txt").write_text(
+        "% program   : RTKPOST ver.2.4.3\n% (lat/lon/height=WGS84/ellipsoidal,Q=1:fix)\n"
+        "%  GPST                  latitude(deg) longitude(deg)  height(m)   Q  ns\n"
+        "2025/03/15 10:00:00.000   47.400000000   10.300000000   900.0000   1   9\n"
+    )
+    (tmp_path / "mt.txt").write_text("// Update Rate: 100.0Hz\nPacketCounter\tAcc_X\n1\t9.8\n")
+    trial = tmp_path / "T1"
+    trial.mkdir()
+    (trial / "trial_data.json").write_text(json.dumps({"TrackID": "1"}))
+    (trial / "imu_lefthand.csv").write_text("t,a\n0,1\n")
+    (tmp_path / "plain.csv").write_text("Time,AccX\n0,1\n")
+    expect = {
+        "phone.zip": "phyphox",
+        "gps.txt": "nmea",
+        "track.xml": "gpx",
+        "rtk.txt": "rtklib",
+        "mt.txt": "xsens",
+        "T1": "bouldering",
+        "plain.csv": None,
+    }
+    mods = {f: importlib.import_module(f"sportfusion.ingest.{f}") for f in FORMATS}
+    for name, fmt in expect.items():
+        p = tmp_path / name
+        head = p.read_bytes()[:4096] if p.is_file() else b""
+        claims = {f for f, m in mods.items() if m.sniff(p, head)}
+        assert claims == ({fmt} if fmt else set()), (name, claims)
+        if fmt:
+            assert detect_format(p) == fmt
+    with pytest.raises(InputError, match="format not recognised.*--map"):
+        detect_format(tmp_path / "plain.csv")
