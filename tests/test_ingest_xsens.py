@@ -100,5 +100,20 @@ def test_packet_counter_with_update_rate_and_utc_epoch(tmp_path):
 def test_no_timing_column_is_an_error(tmp_path):
     p = tmp_path / "x.txt"
     p.write_text("// Firmware Version: 4.0.2\nAcc_X\tAcc_Y\n1\t2\n")
-    with pytest.raises(InputError, match="no SampleTimeFine column"):
+    with pytest.raises(InputError, match="neither SampleTimeFine nor PacketCounter, no Update Rate header"):
+        xsens.read(p, Options())
+
+
+def test_empty_sample_time_fine_and_utc_cells_fall_back_to_the_packet_counter(tmp_path):
+    """As in MT Manager exports of Awinda data: SampleTimeFine and UTC columns present but empty."""
+    head = "PacketCounter\tSampleTimeFine\tUTC_Nano\tUTC_Year\tUTC_Valid\tAcc_X\tMat[1][1]\n"
+    rows = "".join(f"{n:05d}\t\t\t\t\t{a}\t1.0\n" for n, a in ((3583, 3.03), (3584, 3.04), (3586, 3.05)))
+    p = tmp_path / "awinda.txt"
+    p.write_text("// Update Rate: 60.0Hz\n" + head + rows)
+    rec = read_recording(p)
+    np.testing.assert_allclose(rec.streams[0].t, [0.0, 1 / 60, 3 / 60])  # a lost packet leaves its gap
+    assert vals(rec, "acc_x").tolist() == [3.03, 3.04, 3.05]
+    assert rec.meta["time_from"] == "PacketCounter" and rec.epoch_utc is None
+    p.write_text(head + rows)
+    with pytest.raises(InputError, match="SampleTimeFine and PacketCounter with empty cells, no Update Rate"):
         xsens.read(p, Options())

@@ -18,9 +18,9 @@ Columns (units)
     metadata and not read.
 
 Time
-    From ``SampleTimeFine`` (ticks of 100 us, 32-bit, unwrapped) when present,
-    else ``PacketCounter`` (16-bit, unwrapped) divided by the header's update
-    rate.  ``t`` counts from the first sample.  The recording has an absolute
+    From ``SampleTimeFine`` (ticks of 100 us, 32-bit, unwrapped) when every
+    row has it, else ``PacketCounter`` (16-bit, unwrapped; some exports leave
+    SampleTimeFine empty) divided by the header's update (or sampling) rate.  ``t`` counts from the first sample.  The recording has an absolute
     time when the export carries ``UTC_Year .. UTC_Second`` (+ ``UTC_Nano``)
     with ``UTC_Valid`` bits 0 and 1 (date, time of day valid) set on some row: the epoch is that row's UTC minus its
     ``t``.  Otherwise there is no absolute time (warning; use ``--offset``).
@@ -87,24 +87,24 @@ def read(path: Path, opts: Options) -> Recording:
         raise InputError(f"{path}: the Xsens export has no samples")
     warnings: list[str] = []
     rate = None
-    m = _RATE.search(header.get("Update Rate", ""))
+    m = _RATE.search(header.get("Update Rate", header.get("Sampling Rate", "")))
     if m:
         rate = float(m.group(1))
-    if "SampleTimeFine" in names:
-        raw = floats(table, "SampleTimeFine")
+    stf = floats(table, "SampleTimeFine") if "SampleTimeFine" in names else None
+    pc = floats(table, "PacketCounter") if "PacketCounter" in names else None
+    if stf is not None and np.isfinite(stf).all():
         tname = "SampleTimeFine"
-        t = _unwrap(raw, 32) * TICK
-    elif "PacketCounter" in names and rate:
-        raw = floats(table, "PacketCounter")
+        t = _unwrap(stf, 32) * TICK
+    elif pc is not None and rate and np.isfinite(pc).all():
         tname = "PacketCounter"
-        t = _unwrap(raw, 16) / rate
+        t = _unwrap(pc, 16) / rate
     else:
+        have = [c for c, v in (("SampleTimeFine", stf), ("PacketCounter", pc)) if v is not None]
+        detail = f"{' and '.join(have)} with empty cells" if have else "neither SampleTimeFine nor PacketCounter"
         raise InputError(
-            f"{path}: no SampleTimeFine column, and no PacketCounter with an 'Update Rate' header; "
-            "expected one of them to time the samples"
+            f"{path}: {detail}{'' if rate else ', no Update Rate header'}; expected SampleTimeFine on every row, "
+            "or PacketCounter on every row and an 'Update Rate: ...Hz' header, to time the samples"
         )
-    if not np.isfinite(t).all():
-        raise InputError(f"{path}: {tname} is missing in row {int(np.argmax(~np.isfinite(t))) + 1}")
     t = t - t[0]
     cols: dict[str, object] = {}
     used = {"SampleTimeFine", "PacketCounter"}
