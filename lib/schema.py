@@ -118,19 +118,26 @@ register("turn", STR, "", "turn direction at a gate (L or R)")
 # other table kinds
 register("route", STR, "", "route (track) identifier")
 register("hold", I32, "1", "hold index on the route")
+register("route_hold", I32, "1", "the hold's own index in its route file (bouldering dataset hold maps)")
 # climbing (pf-holds)
 register("hold_id", I32, "1", "hold number of the most likely particle cluster at a grip (-1: elsewhere)")
 register("cluster_prob", F64, "1", "probability of the most likely particle cluster (pf-holds)")
 register("gate", I32, "1", "gate number along the course")
 # ski racing from GNSS (spline-smooth, dmc-attitude)
-register("course", F64, "rad", "azimuth of the horizontal velocity (spline tangent), clockwise from north, in (-pi, pi]")
+register(
+    "course", F64, "rad", "azimuth of the horizontal velocity (spline tangent), clockwise from north, in (-pi, pi]"
+)
 register("spline_filled", BOOL, "", "position bridged by the spline across a GNSS data gap (no measured position near)")
-register("quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)")
+register(
+    "quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)"
+)
 register("dmc_singular", BOOL, "", "DMC attitude unreliable: specific force near free fall or parallel to the field")
 for _a in "xyz":  # DESIGN names vx vy vz / ax ay az (the _xyz helper above registers v_x, a_x)
     register(f"v{_a}", F64, "m/s", f"velocity in the local frame, {_a} axis")
     register(f"a{_a}", F64, "m/s^2", f"kinematic acceleration in the local frame, {_a} axis")
-    register(f"a{_a}_dmc", F64, "m/s^2", f"kinematic acceleration from the DMC attitude and specific force, local {_a} axis")
+    register(
+        f"a{_a}_dmc", F64, "m/s^2", f"kinematic acceleration from the DMC attitude and specific force, local {_a} axis"
+    )
 # ski-jump truth/evaluation (simulate skijump, evaluate)
 register("jump_length", F64, "m", "jump length along the landing profile from the knoll base F")
 register("phase", STR, "", "motion phase (inrun, flight, outrun, all) or a jump label in a summary")
