@@ -232,3 +232,19 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     """A numeric column as a float64 numpy array, nulls as NaN."""
     col = table.column(name).cast(F64).fill_null(np.nan)
     return np.asarray(col.to_numpy(), dtype=np.float64)
+
+
+# rts-smooth (skijump ERTS smoother): constraint residuals at the smoothed state, forward-only estimates
+register("c_q", F64, "1", "quaternion norm constraint |q| - 1 at the smoothed state (skijump eq 51)")
+register(
+    "c_v_ir", F64, "m", "in-run vertical constraint z - z_IR(x) at the smoothed state (eq 32), null where inactive"
+)
+register("c_h_ir", F64, "m", "in-run lateral constraint y at the smoothed state (eq 33), null where inactive")
+register(
+    "c_v_la",
+    F64,
+    "m",
+    "landing-area vertical constraint z - z_LA(x) at the smoothed state (eq 34), null where inactive",
+)
+for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
+    register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
