@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+from scipy.ndimage import median_filter
 
 from sportfusion import rotations, schema
 from sportfusion.attitude import quest
@@ -63,6 +64,8 @@ __all__ = [
     "smooth_inputs",
     "rts_smooth_table",
     "CONSTRAINT_COLUMNS",
+    "session_events",
+    "segments",
 ]
 
 IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z")
@@ -108,6 +111,7 @@ class SmootherConfig:
     rest_speed: float = 1.0
     max_rest: float = 60.0
     init_window: float = 0.1
+    max_gap: float = 1.0
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -211,7 +215,10 @@ def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np
     return out
 
 
-def _events(table: pa.Table, takeoff: list[float] | None, touchdown: list[float] | None) -> list[tuple[float, float]]:
+def session_events(
+    table: pa.Table, takeoff: list[float] | None, touchdown: list[float] | None
+) -> list[tuple[float, float]]:
+    """(take-off, touch-down) pairs [s]: the given lists, else the ``event`` column's rows (validated)."""
     if takeoff is not None or touchdown is not None:
         tos, tds = sorted(takeoff or []), sorted(touchdown or [])
     elif "event" in table.column_names:
@@ -254,7 +261,8 @@ def constraint_windows(
     """
     inrun = np.zeros(t.size, bool)
     landing = np.zeros(t.size, float)
-    slow = speed < cfg.rest_speed
+    # a running median over 9 GNSS epochs keeps single noisy velocities from splitting a rest
+    slow = median_filter(speed, size=9, mode="nearest") < cfg.rest_speed if speed.size else speed < cfg.rest_speed
     seg_start = t[0]
     for k, (t_to, t_td) in enumerate(jumps):
         # in-run: back from the take-off to the last rest
@@ -268,6 +276,7 @@ def constraint_windows(
                 and slow[i - 1]
                 and speed_t[i - 1] >= seg_start
                 and speed_t[idx[-1]] - speed_t[i - 1] <= cfg.max_rest
+                and speed_t[i] - speed_t[i - 1] <= cfg.max_gap
             ):
                 i -= 1
             start = max(speed_t[i], seg_start)
@@ -276,18 +285,19 @@ def constraint_windows(
         nxt = jumps[k + 1][0] if k + 1 < len(jumps) else math.inf
         after = np.flatnonzero((speed_t > t_td + 1.0) & (speed_t < nxt) & slow)
         end = t[-1] if math.isinf(nxt) else nxt
-        if idx_after := after.size:
+        if after.size:
             i = after[0]
             t_stop = speed_t[i]
             while (
                 i + 1 < speed_t.size
                 and slow[i + 1]
                 and speed_t[i + 1] - t_stop <= cfg.max_rest
+                and speed_t[i + 1] - speed_t[i] <= cfg.max_gap
                 and speed_t[i + 1] < nxt
             ):
                 i += 1
-            end = speed_t[i] if (i + 1 < speed_t.size and speed_t[i + 1] < nxt) else end
-        del idx_after
+            if i + 1 < speed_t.size and speed_t[i + 1] < nxt:  # moving again, or a gap, before the next jump
+                end = speed_t[i]
         t0 = t_td + cfg.la_delay
         w = np.clip((t - t0) / cfg.la_ramp, 0.0, 1.0) if cfg.la_ramp > 0 else (t >= t0).astype(float)
         w[t < t0] = 0.0
@@ -363,7 +373,7 @@ def session_inputs(
         mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
     else:
         mag = np.full((t.size, 3), np.nan)
-    jumps = _events(table, takeoff, touchdown)
+    jumps = session_events(table, takeoff, touchdown)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
             if not t[0] <= te <= t[-1]:
@@ -499,27 +509,84 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
     return propagate, measure
 
 
+def segments(t: np.ndarray, max_gap: float) -> list[tuple[int, int]]:
+    """Index ranges ``[a, b)`` of the IMU steps split where the sampling stops for more than ``max_gap`` [s]."""
+    cut = np.flatnonzero(np.diff(t) > max_gap) + 1
+    edges = [0, *cut.tolist(), t.size]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
+    sl = slice(a, b)
+    return SkiJumpInputs(
+        t=inp.t[sl],
+        rows=inp.rows[sl],
+        u=inp.u[sl],
+        pos=inp.pos[sl],
+        vel=inp.vel[sl],
+        mag=inp.mag[sl],
+        g0=inp.g0,
+        m_o=inp.m_o,
+        azimuth_deg=inp.azimuth_deg,
+        jumps=inp.jumps,
+        inrun=inp.inrun[sl],
+        landing=inp.landing[sl],
+    )
+
+
 def smooth_inputs(
     inp: SkiJumpInputs,
     hill: Hill | None,
     cfg: SmootherConfig,
     progress: Callable[[int], object] | None = None,
 ) -> SmootherResult:
-    """Run the EKF + RTS smoother over the prepared inputs (raises InputError when it diverges)."""
-    x0, P0 = initial_state(inp, cfg)
-    propagate, measure = _model_callables(inp, cfg, hill)
-    try:
-        return ekf_rts(x0, P0, inp.t.size, propagate, measure, progress=progress, t=inp.t)
-    except CovarianceError as exc:
-        raise InputError(f"the smoother failed: {exc}") from None
+    """Run the EKF + RTS smoother over the prepared inputs (raises InputError when it diverges).
+
+    A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
+    independent segments (each initialised from its own first samples); the
+    results are concatenated.
+    """
+    parts = []
+    for a, b in segments(inp.t, cfg.max_gap):
+        seg = _slice(inp, a, b)
+        if b - a < 2 or not np.isfinite(seg.pos[:, 0]).any():
+            raise InputError(
+                f"the IMU segment {seg.t[0]:.2f}-{seg.t[-1]:.2f} s has no GNSS fix (or a single sample); "
+                "expected GNSS during every recorded stretch"
+            )
+        x0, P0 = initial_state(seg, cfg)
+        propagate, measure = _model_callables(seg, cfg, hill)
+        try:
+            parts.append(ekf_rts(x0, P0, seg.t.size, propagate, measure, progress=progress, t=seg.t))
+        except CovarianceError as exc:
+            raise InputError(f"the smoother failed: {exc}") from None
+    if len(parts) == 1:
+        return parts[0]
+    n = inp.t.size
+    names = {k: v.shape[1] for p in parts for k, v in p.residuals.items()}
+    res = {k: np.full((n, m), np.nan) for k, m in names.items()}
+    i = 0
+    for p in parts:
+        m = p.x_filt.shape[0]
+        for k, v in p.residuals.items():
+            res[k][i : i + m] = v
+        i += m
+    return SmootherResult(
+        x_filt=np.concatenate([p.x_filt for p in parts]),
+        P_filt=np.concatenate([p.P_filt for p in parts]),
+        x_smooth=np.concatenate([p.x_smooth for p in parts]),
+        P_smooth=np.concatenate([p.P_smooth for p in parts]),
+        residuals=res,
+    )
 
 
-def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Values at the steps -> every table row (linear in time; NaN outside the IMU span)."""
+def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
+    """Values at the steps -> every table row (linear in time; NaN outside the IMU segments)."""
     out = np.full((t_rows.size, values.shape[1]), np.nan)
-    inside = (t_rows >= t[0]) & (t_rows <= t[-1])
-    for j in range(values.shape[1]):
-        out[inside, j] = np.interp(t_rows[inside], t, values[:, j])
+    for a, b in segments(t, max_gap):
+        inside = (t_rows >= t[a]) & (t_rows <= t[b - 1])
+        for j in range(values.shape[1]):
+            out[inside, j] = np.interp(t_rows[inside], t[a:b], values[a:b, j])
     return out
 
 
@@ -642,7 +709,7 @@ def rts_smooth_table(
     if filtered:
         cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))
     names = list(cols)
-    vals = _interp_rows(t_rows, inp.t, np.stack([cols[n] for n in names], axis=-1))
+    vals = _interp_rows(t_rows, inp.t, np.stack([cols[n] for n in names], axis=-1), cfg.max_gap)
     out_cols = {n: vals[:, j] for j, n in enumerate(names)}
     # quaternions interpolated linearly: renormalise
     for pre in ("", "filt_") if filtered else ("",):

@@ -248,3 +248,11 @@ register(
 )
 for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
     register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
+# jump-metrics (jumps table, one row per jump)
+register("jump", I32, "1", "jump number in the session (0-based)")
+register("t_takeoff", F64, "s", "take-off time on the session clock")
+register("t_touchdown", F64, "s", "touch-down time on the session clock")
+register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")
+register("flight_time", F64, "s", "touch-down minus take-off time")
+_xyz("touchdown", "m", "estimated sensor position at the touch-down, hill frame")
+register("max_height", F64, "m", "largest vertical height of the sensor above the landing profile in flight")
