@@ -47,7 +47,7 @@ from sportfusion.errors import InputError
 from sportfusion.events import gnss_speed
 from sportfusion.frames import Frame, gnss_local_columns
 from sportfusion.hillfile import Hill
-from sportfusion.kalman import CovarianceError, Measurement, SmootherResult, ekf_rts
+from sportfusion.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.magfield import reference_field
 from sportfusion.meta import epoch_unix
 from sportfusion.models import skijump_ekf as mdl
@@ -112,6 +112,8 @@ class SmootherConfig:
     max_rest: float = 60.0
     init_window: float = 0.1
     max_gap: float = 1.0
+    passes: int = 5
+    pass_tol_deg: float = 0.05
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -534,19 +536,106 @@ def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
     )
 
 
+@dataclass
+class Smoothed:
+    """Smoother output over all IMU steps (either engine).
+
+    ``cov(idx)`` returns the smoothed covariances (n, k, k) over the state indices ``idx``.
+    """
+
+    x_filt: np.ndarray
+    x_smooth: np.ndarray
+    cov: Callable[[np.ndarray], np.ndarray]
+    residuals: dict[str, np.ndarray]
+    passes: list[int]
+
+
+def _fast_engine():  # noqa: ANN202
+    try:
+        from sportfusion.kalman import skijump_fast
+    except ImportError:  # numba missing: the numpy reference path
+        return None
+    return skijump_fast
+
+
+def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, x0: np.ndarray, P0: np.ndarray):  # noqa: ANN001, ANN202
+    use_hill = cfg.hill_constraints and hill is not None
+    ir = ProfileTable(hill, "inrun") if use_hill else None
+    la = ProfileTable(hill, "landing") if use_hill else None
+    empty = np.zeros(2)
+    xf, xs, Pp, resid, fail, phase = fast.ski_ekf_rts(
+        seg.t,
+        seg.u,
+        seg.pos,
+        seg.vel,
+        seg.mag,
+        seg.inrun,
+        seg.landing,
+        x0,
+        P0,
+        float(seg.g0),
+        m_no(math.radians(seg.azimuth_deg)),
+        seg.m_o,
+        np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+        np.asarray(cfg.r_gnss_pos, float) ** 2,
+        np.asarray(cfg.r_gnss_vel, float) ** 2,
+        float(cfg.r_mag**2),
+        float(cfg.r_c_q**2),
+        float(cfg.r_c_v_ir**2),
+        float(cfg.r_c_h_ir**2),
+        float(cfg.r_c_v_la**2),
+        ir.x0 if ir else 0.0,
+        ir.step if ir else 1.0,
+        ir.z if ir else empty,
+        ir.dz if ir else empty,
+        la.x0 if la else 0.0,
+        la.step if la else 1.0,
+        la.z if la else empty,
+        la.dz if la else empty,
+        use_hill,
+        bool(cfg.use_gnss_vel),
+        bool(cfg.use_mag),
+    )
+    if fail >= 0:
+        what = ("update", "prediction", "backward pass")[phase]
+        raise CovarianceError(f"covariance not positive definite at step {fail} (t = {seg.t[fail]:.3f} s) ({what})")
+    res, i = {}, 0
+    for name, w in fast.RESIDUALS:
+        res[name] = resid[:, i : i + w]
+        i += w
+    return xf, xs, Pp, res
+
+
 def smooth_inputs(
     inp: SkiJumpInputs,
     hill: Hill | None,
     cfg: SmootherConfig,
     progress: Callable[[int], object] | None = None,
-) -> SmootherResult:
+    engine: str = "auto",
+) -> Smoothed:
     """Run the EKF + RTS smoother over the prepared inputs (raises InputError when it diverges).
+
+    Parameters
+    ----------
+    engine : {"auto", "numba", "numpy"}
+        ``numpy``: :func:`sportfusion.kalman.ekf_rts` with the model callables (the
+        reference); ``numba``: the compiled loop of
+        :mod:`sportfusion.kalman.skijump_fast` (same equations, packed
+        covariances); ``auto``: numba when it is installed.
 
     A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
     independent segments (each initialised from its own first samples); the
-    results are concatenated.
+    results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
+    the smoothed initial state (mean only, same ``P0``) until the initial attitude
+    changes by less than ``cfg.pass_tol_deg`` or ``passes`` runs are done: this
+    re-linearises the start, where an attitude error of tens of degrees (gyro
+    biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
+    regime.
     """
-    parts = []
+    fast = _fast_engine() if engine in ("auto", "numba") else None
+    if engine == "numba" and fast is None:
+        raise InputError("engine numba requested but numba is not installed; expected pip install numba")
+    xfs, xss, covs, resids, npass = [], [], [], [], []
     for a, b in segments(inp.t, cfg.max_gap):
         seg = _slice(inp, a, b)
         if b - a < 2 or not np.isfinite(seg.pos[:, 0]).any():
@@ -555,29 +644,46 @@ def smooth_inputs(
                 "expected GNSS during every recorded stretch"
             )
         x0, P0 = initial_state(seg, cfg)
-        propagate, measure = _model_callables(seg, cfg, hill)
+        if fast is None:
+            propagate, measure = _model_callables(seg, cfg, hill)
         try:
-            parts.append(ekf_rts(x0, P0, seg.t.size, propagate, measure, progress=progress, t=seg.t))
+            for it in range(max(cfg.passes, 1)):
+                if fast is None:
+                    r = ekf_rts(x0, P0, seg.t.size, propagate, measure, progress=progress, t=seg.t)
+                    xf, xs, P, res = r.x_filt, r.x_smooth, r.P_smooth, r.residuals
+                else:
+                    xf, xs, P, res = _run_fast(fast, seg, cfg, hill, x0, P0)
+                    if progress is not None:
+                        for k in range(2 * seg.t.size - 1):
+                            progress(k)
+                q_old = x0[6:10] / np.linalg.norm(x0[6:10])
+                x0 = xs[0].copy()
+                x0[6:10] /= np.linalg.norm(x0[6:10])
+                change = float(np.degrees(rotations.quat_angle(q_old, x0[6:10])))
+                if it > 0 and change < cfg.pass_tol_deg:
+                    break
         except CovarianceError as exc:
             raise InputError(f"the smoother failed: {exc}") from None
-    if len(parts) == 1:
-        return parts[0]
-    n = inp.t.size
-    names = {k: v.shape[1] for p in parts for k, v in p.residuals.items()}
-    res = {k: np.full((n, m), np.nan) for k, m in names.items()}
+        xfs.append(xf)
+        xss.append(xs)
+        covs.append(P)
+        resids.append(res)
+        npass.append(it + 1)
+
+    def cov(idx: np.ndarray) -> np.ndarray:
+        idx = np.asarray(idx)
+        if fast is None:
+            return np.concatenate([P[:, idx][:, :, idx] for P in covs])
+        return np.concatenate([fast.unpack_many(P, idx) for P in covs])
+
+    names = {k: v.shape[1] for r in resids for k, v in r.items()}
+    out = {k: np.full((inp.t.size, m), np.nan) for k, m in names.items()}
     i = 0
-    for p in parts:
-        m = p.x_filt.shape[0]
-        for k, v in p.residuals.items():
-            res[k][i : i + m] = v
-        i += m
-    return SmootherResult(
-        x_filt=np.concatenate([p.x_filt for p in parts]),
-        P_filt=np.concatenate([p.P_filt for p in parts]),
-        x_smooth=np.concatenate([p.x_smooth for p in parts]),
-        P_smooth=np.concatenate([p.P_smooth for p in parts]),
-        residuals=res,
-    )
+    for xf, r in zip(xfs, resids, strict=True):
+        for k, v in r.items():
+            out[k][i : i + xf.shape[0]] = v
+        i += xf.shape[0]
+    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, out, npass)
 
 
 def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
@@ -591,7 +697,7 @@ def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap:
 
 
 def _estimate_columns(
-    x: np.ndarray, P: np.ndarray | None, inp: SkiJumpInputs, prefix: str = ""
+    x: np.ndarray, cov: Callable[[np.ndarray], np.ndarray] | None, inp: SkiJumpInputs, prefix: str = ""
 ) -> dict[str, np.ndarray]:
     """Named estimate columns (at the steps) from states (n, 22) and covariances (n, 22, 22)."""
     mno = m_no(math.radians(inp.azimuth_deg))
@@ -614,9 +720,11 @@ def _estimate_columns(
     for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
         for k, a in enumerate("xyz"):
             cols[f"{name}_{a}"] = x[:, sl][:, k]
-    if P is None:
+    if cov is None:
         return cols
-    d = np.sqrt(np.maximum(np.diagonal(P, axis1=1, axis2=2), 0.0))
+    d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
+    P = np.zeros((x.shape[0], 10, 10))
+    P[:, 3:10, 3:10] = cov(np.arange(3, 10))
     for k, a in enumerate("xyz"):
         cols[f"std_{a}"] = d[:, k]
     # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
@@ -677,6 +785,7 @@ def rts_smooth_table(
     filtered: bool = False,
     progress: Callable[[int], object] | None = None,
     on_start: Callable[[int], object] | None = None,
+    engine: str = "auto",
 ) -> tuple[pa.Table, dict[str, Any], str]:
     """``rts-smooth`` on a session table: every input column plus the estimate columns.
 
@@ -701,10 +810,10 @@ def rts_smooth_table(
     cfg = cfg or SmootherConfig()
     inp, frame = session_inputs(table, meta, hill, cfg, takeoff, touchdown)
     if on_start is not None:
-        on_start(2 * inp.t.size - 1)
-    res = smooth_inputs(inp, hill, cfg, progress)
+        on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
+    res = smooth_inputs(inp, hill, cfg, progress, engine)
     t_rows = schema.floats(table, "t")
-    cols = _estimate_columns(res.x_smooth, res.P_smooth, inp)
+    cols = _estimate_columns(res.x_smooth, res.cov, inp)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
     if filtered:
         cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))
@@ -725,6 +834,7 @@ def rts_smooth_table(
         "config": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()},
         "jumps": [{"takeoff": a, "touchdown": b} for a, b in inp.jumps],
         "gravity": inp.g0,
+        "passes": res.passes,
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
