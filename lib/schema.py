@@ -250,3 +250,27 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     """A numeric column as a float64 numpy array, nulls as NaN."""
     col = table.column(name).cast(F64).fill_null(np.nan)
     return np.asarray(col.to_numpy(), dtype=np.float64)
+
+
+# rts-smooth (skijump ERTS smoother): constraint residuals at the smoothed state, forward-only estimates
+register("c_q", F64, "1", "quaternion norm constraint |q| - 1 at the smoothed state (skijump eq 51)")
+register(
+    "c_v_ir", F64, "m", "in-run vertical constraint z - z_IR(x) at the smoothed state (eq 32), null where inactive"
+)
+register("c_h_ir", F64, "m", "in-run lateral constraint y at the smoothed state (eq 33), null where inactive")
+register(
+    "c_v_la",
+    F64,
+    "m",
+    "landing-area vertical constraint z - z_LA(x) at the smoothed state (eq 34), null where inactive",
+)
+for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
+    register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
+# jump-metrics (jumps table, one row per jump)
+register("jump", I32, "1", "jump number in the session (0-based)")
+register("t_takeoff", F64, "s", "take-off time on the session clock")
+register("t_touchdown", F64, "s", "touch-down time on the session clock")
+register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")
+register("flight_time", F64, "s", "touch-down minus take-off time")
+_xyz("touchdown", "m", "estimated sensor position at the touch-down, hill frame")
+register("max_height", F64, "m", "largest vertical height of the sensor above the landing profile in flight")
