@@ -10,7 +10,7 @@ origin on the snow at the start):
   its moment vertical (pointing down, so that above it it adds to the Earth
   field); the survey of the magnets (a ``gates`` table) carries a survey noise;
 * the snow-projection of the sacrum follows a C2 spline that swings around each
-  gate on its outside, ``lateral offset`` 0.05-1.0 m beyond the pole; the
+  gate on its outside, ``pass_offset`` 0-0.5 m beyond the pole (first/last gate sometimes 1-1.4 m); the
   sacrum is ``H0 cos(lean)`` above the snow along the snow normal, with
   ``lean = atan(a_lat / g)`` (the inclination that balances the lateral
   acceleration), so it passes 0.2-1.2 m from the magnets; a pass beyond about
@@ -73,8 +73,8 @@ class GatesConfig:
     date: str = "2026-01-20T10:00:00Z"
     moment: float = DEFAULT_MOMENT  # magnet moment [A m^2]
     burial: float = 0.05  # magnet depth below the snow [m]
-    pass_offset: tuple[float, float] = (0.05, 1.0)  # sacrum's snow projection beyond the pole [m]
-    sacrum_height: float = 0.8  # sacrum height above the snow at zero lean while skiing [m]
+    pass_offset: tuple[float, float] = (0.0, 0.5)  # sacrum's snow projection beyond the pole [m]
+    sacrum_height: float = 0.95  # sacrum height above the snow at zero lean while skiing [m]
     height_spread: float = 0.05  # relative 1-sigma of the sacrum height at each gate
     survey_sigma: tuple[float, float] = (0.02, 0.03)  # survey noise, horizontal / vertical [m]
     spurious: int = 1  # magnetic disturbances beside the track [count]
@@ -256,7 +256,7 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     tr = t - cfg.static
     t_run_end = k_stop * FINE_DT
     skiing = _smoothstep(tr / 1.5) * (1 - _smoothstep((tr - t_run_end + 1.5) / 1.5))
-    h0 = 0.95 + (cfg.sacrum_height - 0.95) * skiing  # upright at start/finish, crouched while skiing
+    h0 = 1.0 + (cfg.sacrum_height - 1.0) * skiing  # upright at start/finish, crouched while skiing
     # per-gate variation of the height (posture) around the model, smooth in time
     gate_s = np.interp(c["gx"], xs, s_of_x)
     hv = rng.normal(0, cfg.height_spread, c["gx"].size)
@@ -272,7 +272,7 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     idx = np.flatnonzero(np.isfinite(heading))
     heading = np.interp(np.arange(t.size), idx, heading[idx])
     heading = np.convolve(np.pad(heading, 50, mode="edge"), np.hanning(101) / np.hanning(101).sum(), mode="valid")
-    pelvis = np.deg2rad(4.0) * np.sin(2 * np.pi * t / 1.3) * skiing
+    pelvis = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 1.3) * skiing
     sway = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 3.7)
     yaw = np.deg2rad(cfg.azimuth_deg) + heading + pelvis
     slope_along = np.arctan2(vs[:, 2], np.maximum(sp, 1e-3)) * moving
