@@ -126,10 +126,19 @@ def test_bad_time_column_names_column(tmp_path):
     assert "'t'" in line and "strictly increasing" in line
 
 
+_PNG = str(Path(tempfile.gettempdir()) / "sportfusion-contract.png")
+_FIX = Path(__file__).resolve().parents[1] / "fixtures"
 #: Extra arguments a tool needs before it reads its input (side inputs); filled as tools land.
 EXTRA: dict[str, list[str]] = {
     # plot writes an image, so its output file is required
-    "plot track": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract.png")],
+    "plot track": ["-o", _PNG],
+    "plot speed": ["-o", _PNG],
+    "plot series": ["-o", _PNG],
+    "plot mag": ["-o", _PNG],
+    "plot spline": ["-o", _PNG],
+    "plot errors": ["-o", _PNG, "--truth", str(_FIX / "skijump" / "truth.parquet")],
+    "plot gates": ["-o", _PNG, "--gates", str(_FIX / "skijump" / "truth.parquet")],
+    "plot holds": ["-o", _PNG, "--holds", str(_FIX / "skijump" / "truth.parquet")],
 }
 
 

@@ -98,13 +98,18 @@ def track_cmd(
 )
 @click.version_option(__version__, "--version", prog_name="plot", message="%(prog)s (sportfusion) %(version)s")
 def main() -> None:
-    """PNG/SVG figures (format from the -o suffix): `plot hill` draws a hill
-    profile, `plot track` a session over it.  Needs matplotlib (the `plot`
-    extra)."""
+    """PNG/SVG figures (format from the -o suffix): `hill` a hill profile,
+    `track` a session over it, `speed` the trajectory coloured by speed,
+    `series` estimates against time, `errors` estimate minus truth, `mag`
+    measured vs estimated magnetometer, `spline` spline vs raw GNSS, `gates`
+    an alpine course with its anchors, `holds` a climbing hand path over the
+    hold map.  Needs matplotlib (the `plot` extra)."""
 
 
 main.add_command(hill_cmd, name="hill")
 main.add_command(track_cmd, name="track")
+for _name, _cmd in __import__("sportfusion.tools.plot_figures", fromlist=["COMMANDS"]).COMMANDS.items():
+    main.add_command(_cmd, name=_name)
 
 
 if __name__ == "__main__":  # pragma: no cover

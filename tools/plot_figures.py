@@ -1,0 +1,188 @@
+"""``plot`` subcommands for the figures of the papers: speed, series, errors, mag, spline, gates, holds.
+
+Each reads one table (stdin or INPUT), takes side inputs as options and writes one image (-o, PNG
+or SVG by suffix). The drawing lives in :mod:`sportfusion.plots_series` and
+:mod:`sportfusion.plots_course`.
+"""
+
+from __future__ import annotations
+
+import click
+
+from sportfusion import io as sfio
+from sportfusion import schema
+from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import hill_options, load_hill_option
+from sportfusion.tools.plot import _image_options
+
+
+def _write(tool: Tool, fig: object, output: str, dpi: float) -> None:
+    from sportfusion.plots import figure_format, render
+
+    sfio.write_bytes(render(fig, figure_format(output), dpi), output)  # type: ignore[arg-type]
+    tool.info(f"wrote {output}")
+
+
+def _truth_option(required: bool = False):  # noqa: ANN202 - click decorator
+    return click.option(
+        "--truth",
+        "truth_path",
+        type=click.Path(exists=True, dir_okay=False),
+        required=required,
+        help="Truth table of the same session (simulate --truth): true_x.. [m], true_vx.. [m/s], true_q0..3.",
+    )
+
+
+@tool(
+    "plot speed",
+    writes_table=False,
+    example="""
+  rts-smooth jump.parquet --hill oberstdorf_hs106 | plot speed -o speed.png""",
+)
+@hill_options
+@_image_options
+def speed_cmd(
+    tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
+) -> None:
+    """Side view of the estimated trajectory x, -z [m] coloured by speed [m/s] over the hill profile
+    (skijump Figure 7); events annotated with their speed. Hill: --hill, else the session's hill."""
+    from sportfusion.plots import profile_from_meta
+    from sportfusion.plots_series import speed_figure
+
+    table, meta = tool.read()
+    the_hill = load_hill_option(hill, hill_set)
+    profile = the_hill.profile if the_hill is not None else profile_from_meta(meta)
+    _write(tool, speed_figure(table, meta, profile, title or ""), output, dpi)
+
+
+@tool(
+    "plot series",
+    writes_table=False,
+    example="""
+  plot series smoothed.parquet -o series.png""",
+)
+@_image_options
+def series_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
+    """Position [m] (with the GNSS points), velocity [m/s], attitude [deg] and estimated sensor
+    biases against time [s], 1-sigma bands, events as dashed lines (skijump Figures 8-11)."""
+    from sportfusion.plots_series import series_figure
+
+    table, meta = tool.read()
+    _write(tool, series_figure(table, meta, title or ""), output, dpi)
+
+
+@tool(
+    "plot errors",
+    writes_table=False,
+    example="""
+  simulate skijump --hill oberstdorf_hs106 --seed 1 --truth truth.parquet > s.parquet
+  ... | rts-smooth --hill oberstdorf_hs106 | plot errors --truth truth.parquet -o errors.png""",
+)
+@_truth_option(required=True)
+@_image_options
+def errors_cmd(tool: Tool, truth_path: str, output: str, title: str | None, dpi: float) -> None:
+    """Estimate minus truth against time [s]: position [m], velocity [m/s] and the attitude rotation
+    angle [deg], with the estimated 1-sigma band (skijump Figure 6)."""
+    from sportfusion.plots_series import errors_figure
+
+    table, _ = tool.read()
+    truth, _ = sfio.read_table(truth_path, kind="truth")
+    _write(tool, errors_figure(table, truth, title or ""), output, dpi)
+
+
+@tool(
+    "plot mag",
+    writes_table=False,
+    example="""
+  plot mag smoothed.parquet -o mag.png""",
+)
+@_image_options
+def mag_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
+    """Measured magnetometer mag_x.. against the smoother's estimate mag_pred_x.. [uT or 1] against
+    time [s] (skijump Figure 12)."""
+    from sportfusion.plots_series import mag_figure
+
+    table, _ = tool.read()
+    _write(tool, mag_figure(table, title or ""), output, dpi)
+
+
+@tool(
+    "plot spline",
+    writes_table=False,
+    example="""
+  spline-smooth run.parquet | plot spline -o spline.png
+  plot spline smoothed.parquet --truth truth.parquet -o spline.svg""",
+)
+@_truth_option()
+@_image_options
+def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
+    """Raw GNSS gnss_x, gnss_y [m] against the smoothing spline x, y [m] in plan view, and their
+    horizontal difference [m] against time [s] with RTK-float epochs shaded (skiracing Figures 5-6)."""
+    from sportfusion.plots_course import spline_figure
+
+    table, _ = tool.read()
+    truth = sfio.read_table(truth_path, kind="truth")[0] if truth_path else None
+    _write(tool, spline_figure(table, truth, title or ""), output, dpi)
+
+
+@tool(
+    "plot gates",
+    writes_table=False,
+    example="""
+  gate-anchor run.parquet --gates survey.parquet | plot gates --gates survey.parquet -o course.png""",
+)
+@click.option(
+    "--gates",
+    "gates_path",
+    type=click.Path(exists=True, dir_okay=False),
+    required=True,
+    help="Gate survey (kind gates: gate, x, y, z [m] in the session's local frame).",
+)
+@_image_options
+def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: float) -> None:
+    """Top view of an alpine course [m]: surveyed gates, the trajectory, and each detected crossing
+    joined to the gate it was matched to (gates paper Figure 2)."""
+    from sportfusion.plots_course import gates_figure
+
+    table, _ = tool.read()
+    schema.require_columns(table, ["x", "y"], "a session with a trajectory (gate-anchor output)")
+    gates, _ = sfio.read_table(gates_path, kind="gates")
+    _write(tool, gates_figure(table, gates, title or ""), output, dpi)
+
+
+@tool(
+    "plot holds",
+    writes_table=False,
+    example="""
+  pf-holds trial.parquet --holds wall.parquet | plot holds --holds wall.parquet -o path.png""",
+)
+@click.option(
+    "--holds",
+    "holds_path",
+    type=click.Path(exists=True, dir_okay=False),
+    required=True,
+    help="Hold map (kind holds: route, hold, x, y, z [m]; up axis and start holds in its metadata).",
+)
+@_truth_option()
+@_image_options
+def holds_cmd(tool: Tool, holds_path: str, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
+    """Front view of the wall [m]: the routes' holds (S: start hold), the estimated hand path with its
+    grips, and the true path when --truth is given (climbing paper Figure 6)."""
+    from sportfusion.plots_course import holds_figure
+
+    table, _ = tool.read()
+    schema.require_columns(table, ["x", "y", "z"], "a session with a hand path (pf-holds output)")
+    holds, hmeta = sfio.read_table(holds_path, kind="holds")
+    truth = sfio.read_table(truth_path, kind="truth")[0] if truth_path else None
+    _write(tool, holds_figure(table, holds, hmeta, truth, title or ""), output, dpi)
+
+
+COMMANDS = {
+    "speed": speed_cmd,
+    "series": series_cmd,
+    "errors": errors_cmd,
+    "mag": mag_cmd,
+    "spline": spline_cmd,
+    "gates": gates_cmd,
+    "holds": holds_cmd,
+}
