@@ -123,14 +123,20 @@ register("hold_id", I32, "1", "hold number of the most likely particle cluster a
 register("cluster_prob", F64, "1", "probability of the most likely particle cluster (pf-holds)")
 register("gate", I32, "1", "gate number along the course")
 # ski racing from GNSS (spline-smooth, dmc-attitude)
-register("course", F64, "rad", "azimuth of the horizontal velocity (spline tangent), clockwise from north, in (-pi, pi]")
+register(
+    "course", F64, "rad", "azimuth of the horizontal velocity (spline tangent), clockwise from north, in (-pi, pi]"
+)
 register("spline_filled", BOOL, "", "position bridged by the spline across a GNSS data gap (no measured position near)")
-register("quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)")
+register(
+    "quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)"
+)
 register("dmc_singular", BOOL, "", "DMC attitude unreliable: specific force near free fall or parallel to the field")
 for _a in "xyz":  # DESIGN names vx vy vz / ax ay az (the _xyz helper above registers v_x, a_x)
     register(f"v{_a}", F64, "m/s", f"velocity in the local frame, {_a} axis")
     register(f"a{_a}", F64, "m/s^2", f"kinematic acceleration in the local frame, {_a} axis")
-    register(f"a{_a}_dmc", F64, "m/s^2", f"kinematic acceleration from the DMC attitude and specific force, local {_a} axis")
+    register(
+        f"a{_a}_dmc", F64, "m/s^2", f"kinematic acceleration from the DMC attitude and specific force, local {_a} axis"
+    )
 # ski-jump truth/evaluation (simulate skijump, evaluate)
 register("jump_length", F64, "m", "jump length along the landing profile from the knoll base F")
 register("phase", STR, "", "motion phase (inrun, flight, outrun, all) or a jump label in a summary")
@@ -148,6 +154,15 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+
+# alpine racing with magnet gates (gate-anchor)
+register("gate_anchor", BOOL, "", "the gate crossing was used as an anchor point (position update)")
+register("turn_v_in", F64, "m/s", "speed at the turn switch before the gate (turn entrance)")
+register("turn_v_out", F64, "m/s", "speed at the turn switch after the gate (turn exit)")
+register("turn_d_in", F64, "m", "distance from the turn-entrance switch position to the gate")
+register("turn_d_out", F64, "m", "distance from the turn-exit switch position to the gate")
+register("turn_d_cross", F64, "m", "distance from the estimated position at the crossing to the gate")
+register("turn_length", F64, "m", "3-D path length of the turn, switch to switch")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {

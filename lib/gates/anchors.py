@@ -34,9 +34,9 @@ Matching (eqs 7-11)
        with the detections azimuth- and offset-corrected, the same minimisation.  Our refinements: of the
        detections claiming one gate only the nearest keeps it (a noise peak next to a detected gate would
        otherwise remove the true match too), a match farther than ``max_distance`` is dropped, matched gate
-       numbers must increase with time (the longest increasing run is kept), and the absolute matching is
-       repeated twice with each detection corrected by the median offset of its ``neighbours`` nearest
-       matched detections (the pass-1 drift is smooth along the run; one global offset leaves the ends
+       numbers must increase with time (the longest increasing run is kept), and each detection is corrected
+       not by the one median offset but by the median offset of its ``neighbours`` nearest matched
+       detections (from the feature matching, then from the absolute matching, three rounds) (the pass-1 drift is smooth along the run; one global offset leaves the ends
        several metres off).
 """
 
@@ -393,7 +393,9 @@ def match_anchors(
     offset = np.median(survey[first[ok]] - g_hat[ok], axis=0)
     # 4. absolute coordinates (eqs 10-11); the offset is re-estimated from the absolute matches once
     fs = np.column_stack([survey, p.w_side * ssd, p.w_turn * n_num])
-    local = np.broadcast_to(offset, g_hat.shape)
+    local = (
+        _local_offsets(g_hat, survey, first, p.neighbours) if ok.sum() >= 3 else np.broadcast_to(offset, g_hat.shape)
+    )
     for _ in range(3):
         g_abs = g_hat + local
         fa = np.column_stack([g_abs, p.w_side * sd, p.w_turn * m_num])
