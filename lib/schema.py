@@ -167,6 +167,15 @@ register("video_jump_length", F64, "m", "jump length read from the landing video
 register("pos_rms", F64, "m", "3-D RMS position error against the truth")
 register("vel_rms", F64, "m/s", "3-D RMS velocity error against the truth")
 
+# alpine racing with magnet gates (gate-anchor)
+register("gate_anchor", BOOL, "", "the gate crossing was used as an anchor point (position update)")
+register("turn_v_in", F64, "m/s", "speed at the turn switch before the gate (turn entrance)")
+register("turn_v_out", F64, "m/s", "speed at the turn switch after the gate (turn exit)")
+register("turn_d_in", F64, "m", "distance from the turn-entrance switch position to the gate")
+register("turn_d_out", F64, "m", "distance from the turn-exit switch position to the gate")
+register("turn_d_cross", F64, "m", "distance from the estimated position at the crossing to the gate")
+register("turn_length", F64, "m", "3-D path length of the turn, switch to switch")
+
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
     "session": ("t",),

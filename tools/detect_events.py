@@ -15,6 +15,7 @@ import pyarrow as pa
 
 from sportfusion.climbing.grips import GripParams, grip_columns
 from sportfusion.events import JumpParams, detect_jump_events
+from sportfusion.gates.crossings import GateParams, detect_gate_table, gate_columns, read_calibration
 from sportfusion.session import with_columns
 from sportfusion.tools._cli import Tool, tool
 
@@ -49,10 +50,24 @@ def _jump(table: pa.Table, meta: dict[str, Any], o: dict[str, Any]) -> tuple[pa.
     return table, meta, msg
 
 
+def _gates(table: pa.Table, meta: dict[str, Any], o: dict[str, Any]) -> tuple[pa.Table, dict[str, Any], str]:
+    params = GateParams(
+        threshold=o["gate_threshold"],
+        min_separation=o["gate_separation"],
+        background=o["gate_background"],
+        turn_window=o["turn_window"],
+    )
+    cal = read_calibration(o["magnet_calibration"]) if o["magnet_calibration"] else None
+    det = detect_gate_table(table, params, cal)
+    meta = {**meta, "events": [*(meta.get("events") or []), det.summary(params)]}
+    return with_columns(table, gate_columns(table, det)), meta, det.message()
+
+
 #: kind -> runner; other kinds add their runner here and their options below.
 RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa.Table, dict[str, Any], str]]] = {
     "grips": _grips,
     "jump": _jump,
+    "gates": _gates,
 }
 
 
@@ -62,7 +77,9 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
   simulate boulder --seed 1 --holds holds.parquet | detect-events --kind grips > trial.parquet
   detect-events --kind grips --window 17 --threshold 0.5 hand.parquet -o hand_grips.parquet
   simulate skijump --seed 1 | detect-events --kind jump > jump.parquet
-  detect-events --kind jump --touchdown-offset 0.08 --min-peak 20 session.parquet -o events.parquet""",
+  detect-events --kind jump --touchdown-offset 0.08 --min-peak 20 session.parquet -o events.parquet
+  simulate gates --seed 1 --gates survey.parquet | detect-events --kind gates > crossings.parquet
+  detect-events --kind gates --magnet-calibration magnet.csv --gate-threshold 0.08 run.parquet -o crossings.parquet""",
 )
 @click.option(
     "--kind",
@@ -70,7 +87,8 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
     default="grips",
     show_default=True,
     help="Events to detect: grips (low-motion windows of a hand IMU -> columns grip, imu_saturated); "
-    "jump (ski-jump take-off and touch-down -> event rows, skijump Appendix A).",
+    "jump (ski-jump take-off and touch-down -> event rows, skijump Appendix A); "
+    "gates (magnet gate crossings -> event rows 'gate' with gate_b_peak, gate_distance, turn; gates paper).",
 )
 @click.option(
     "--window", default=28, show_default=True, type=click.IntRange(2, 100000), help="grips: moving window [samples]."
@@ -164,6 +182,41 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
     type=click.FloatRange(0, None),
     help="jump: the GNSS speed is not interpolated across longer gaps [s].",
 )
+@click.option(
+    "--gate-threshold",
+    default=GateParams.threshold,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="gates: smallest normalised excess field intensity |B|/background - 1 of a crossing [1].",
+)
+@click.option(
+    "--gate-separation",
+    default=GateParams.min_separation,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="gates: two crossings are at least this far apart [s].",
+)
+@click.option(
+    "--gate-background",
+    default=GateParams.background,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="gates: moving-median window of the background field intensity [s].",
+)
+@click.option(
+    "--turn-window",
+    default=GateParams.turn_window,
+    show_default=True,
+    type=click.FloatRange(0, None),
+    help="gates: half-width of the window averaging gyr_z for the turn side [s].",
+)
+@click.option(
+    "--magnet-calibration",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="gates: the magnet's calibration table, CSV 'distance [m], peak intensity [1]' (or Parquet distance, "
+    "gate_b_peak), fitted with the cube law; default: calibrated from the simulator's magnet.",
+)
 def main(tool: Tool, kind: str, **options: Any) -> None:
     """Detect events in a session. grips: a moving window centred on each IMU
     sample flags a grip when the angular rate (rotated to the world frame with
@@ -174,7 +227,12 @@ def main(tool: Tool, kind: str, **options: Any) -> None:
     largest specific-force peaks more than 1.5 s apart while the GNSS speed
     exceeds 10 m/s (skijump Appendix A), per fast stretch, so several jumps are
     each found; a stretch without two peaks and a flight between them gets no
-    events, with the reason on stderr."""
+    events, with the reason on stderr.
+    gates: a gate crossing at each peak of the field intensity |B| normalised by
+    its background (moving median), the distance to the magnet from the peak with
+    the cube law r = (c/(b-1))^(1/3) (the paper's eq 1 is garbled; c calibrated
+    from the simulator's magnet or --magnet-calibration), and the turn side from
+    the sign of the angular rate about the trunk's long axis (-z: gyr_z > 0 -> R)."""
     table, meta = tool.read()
     table, meta, message = RUNNERS[kind](table, meta, options)
     tool.info(message)

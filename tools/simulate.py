@@ -27,3 +27,4 @@ def main() -> None:
 main.add_command(__import__("sportfusion.tools.simulate_skirace", fromlist=["main"]).main, "skirace")
 main.add_command(__import__("sportfusion.tools.simulate_skijump", fromlist=["main"]).main, "skijump")
 main.add_command(__import__("sportfusion.tools.simulate_boulder", fromlist=["main"]).main, "boulder")
+main.add_command(__import__("sportfusion.tools.simulate_gates", fromlist=["main"]).main, "gates")
