@@ -148,6 +148,29 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+# run-vs-run comparison (compare-runs; skiracing-splines Figure 9), one row per run and common gate
+register("run", STR, "", "run label (the first run of a comparison is the reference)")
+register("crossing_t", F64, "s", "gate crossing time on the run's own clock (its t)")
+register("crossing_source", STR, "", "how the crossing was found: event (gate event row) or closest (closest approach)")
+register("acc_time", F64, "s", "time since the first common gate")
+register("section_time", F64, "s", "time from the previous common gate (gate-to-gate)")
+register("path_distance", F64, "m", "distance integrated along the trajectory since the first common gate")
+register("section_distance", F64, "m", "distance along the trajectory from the previous common gate")
+register("gate_speed", F64, "m/s", "instantaneous speed at the gate crossing")
+register("turn_entry_speed", F64, "m/s", "speed at the turn switch before the gate (start of the turn)")
+register("turn_exit_speed", F64, "m/s", "speed at the turn switch after the gate (end of the turn)")
+register("turn_length", F64, "m", "path length of the turn, from switch to switch")
+for _c in (
+    "acc_time",
+    "section_time",
+    "path_distance",
+    "section_distance",
+    "gate_speed",
+    "turn_entry_speed",
+    "turn_exit_speed",
+    "turn_length",
+):
+    register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
