@@ -61,7 +61,16 @@ from scipy.optimize import minimize_scalar
 from sportfusion import schema
 from sportfusion.errors import InputError
 
-__all__ = ["Track", "RunCrossings", "gate_events", "closest_approach", "compare", "compare_tables", "SUMMARY_COLUMNS"]
+__all__ = [
+    "Track",
+    "RunCrossings",
+    "require_trajectory",
+    "gate_events",
+    "closest_approach",
+    "compare",
+    "compare_tables",
+    "SUMMARY_COLUMNS",
+]
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(5)
 
@@ -163,6 +172,21 @@ class RunCrossings:
     gate_distance: dict[int, float] = field(default_factory=dict)
 
 
+def require_trajectory(table: pa.Table, label: str) -> tuple[str, str, str]:
+    """The position columns a run's trajectory is read from (``x y z``, else ``gnss_x gnss_y gnss_z``).
+
+    Raises :class:`InputError` when the table has neither.
+    """
+    names = set(table.column_names)
+    for cols in (("x", "y", "z"), ("gnss_x", "gnss_y", "gnss_z")):
+        if set(cols) <= names:
+            return cols
+    raise InputError(
+        f"run {label}: missing column(s) x y z (or gnss_x gnss_y gnss_z): compare-runs needs a trajectory "
+        "in the local frame (run gps2hill and spline-smooth or gate-anchor first)"
+    )
+
+
 def track_from_table(table: pa.Table, label: str) -> tuple[Track, list[str]]:
     """The trajectory of a session table (``x y z`` [+ ``vx vy vz``], else ``gnss_x gnss_y gnss_z``).
 
@@ -170,18 +194,13 @@ def track_from_table(table: pa.Table, label: str) -> tuple[Track, list[str]]:
     """
     names = set(table.column_names)
     warnings: list[str] = []
-    if {"x", "y", "z"} <= names:
-        cols, vcols = ("x", "y", "z"), ("vx", "vy", "vz")
-    elif {"gnss_x", "gnss_y", "gnss_z"} <= names:
-        cols, vcols = ("gnss_x", "gnss_y", "gnss_z"), None
+    cols = require_trajectory(table, label)
+    vcols: tuple[str, ...] | None = ("vx", "vy", "vz")
+    if cols[0] == "gnss_x":
+        vcols = None
         warnings.append(
             f"run {label}: no x y z estimate, using the raw GNSS track gnss_x gnss_y gnss_z "
             "(speeds are noisy; smooth it first with spline-smooth)"
-        )
-    else:
-        raise InputError(
-            f"run {label}: missing column(s) x y z (or gnss_x gnss_y gnss_z): compare-runs needs a trajectory "
-            "in the local frame (run gps2hill and spline-smooth or gate-anchor first)"
         )
     t = schema.floats(table, "t")
     pos = np.column_stack([schema.floats(table, c) for c in cols])

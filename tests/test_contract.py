@@ -130,6 +130,7 @@ def test_bad_time_column_names_column(tmp_path):
 EXTRA: dict[str, list[str]] = {
     # plot writes an image, so its output file is required
     "plot track": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract.png")],
+    "plot compare": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract-compare.png")],
 }
 
 

@@ -8,7 +8,7 @@ import click
 
 from sportfusion import io as sfio
 from sportfusion import meta as sfmeta
-from sportfusion.compare import compare_tables
+from sportfusion.compare import compare_tables, require_trajectory
 from sportfusion.tools._cli import Tool, tool
 
 
@@ -87,9 +87,10 @@ def main(
     each with its difference to the reference (run minus reference: positive
     time = slower). Draw it with `plot compare`."""
     ref_table, ref_meta = tool.read()
+    names = _labels([tool.source, *runs], labels)
+    require_trajectory(ref_table, names[0])
     if not runs:
         raise click.UsageError("give at least one --run FILE to compare with the reference")
-    names = _labels([tool.source, *runs], labels)
     tables = [(names[0], ref_table, ref_meta)]
     for label, path in zip(names[1:], runs, strict=True):
         table, meta = sfio.read_table(path, kind="session", what=f"run {path}")

@@ -91,6 +91,31 @@ def track_cmd(
     tool.info(f"wrote {output}")
 
 
+@tool(
+    "plot compare",
+    writes_table=False,
+    example="""
+  compare-runs anna.parquet --run berta.parquet | plot compare -o compare.png
+  plot compare compare.parquet -o compare.svg --title "Downhill, St. Moritz" """,
+    input_help="Summary table written by compare-runs; default: standard input.",
+)
+@_image_options
+def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
+    """Draw the run comparison of Figure 9 of the ski racing splines paper
+    from a compare-runs summary: one row per gate, four columns: accumulated
+    time difference [s], gate-to-gate time difference [s], difference of the
+    distance along the path [m] and of the speed at the gate [m/s], each run
+    minus the reference."""
+    from sportfusion.plots import compare_figure, figure_format, render
+
+    table, meta = tool.read(kind=None)
+    fig = compare_figure(table, meta, title or "")
+    if meta.get("kind") != "summary":
+        raise InputError(f"the input is a '{meta.get('kind')}' table; expected the summary written by compare-runs")
+    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.info(f"wrote {output}")
+
+
 @click.group(
     name="plot",
     epilog="\b\nExample:\n  plot hill --hill oberstdorf_hs106 -o hill.png\n"
@@ -105,6 +130,7 @@ def main() -> None:
 
 main.add_command(hill_cmd, name="hill")
 main.add_command(track_cmd, name="track")
+main.add_command(compare_cmd, name="compare")
 
 
 if __name__ == "__main__":  # pragma: no cover
