@@ -3,11 +3,13 @@
 The runs follow sinusoidal lines y = A sin(2 pi x / 50 m) down a 30 % slope, with the gates at the
 apexes (x = 12.5 m + 25 m k, on the outside of the turn) and the turn switches at the inflections
 (x = 25 m k).  Run B takes a wider line (A = 5.6 m instead of 5 m) and is delayed by a known
-amount in each section (smoothstep within the section).  Truth comes from the closed-form
+amount in each section (smootherstep within the section).  Truth comes from the closed-form
 timing law and scipy quad arc lengths, independent of the library's Hermite/Gauss-Legendre code.
 """
 
 from __future__ import annotations
+
+import io
 
 import numpy as np
 import pyarrow as pa
@@ -28,8 +30,9 @@ FRAME = {"name": "course", "origin": [46.4975, 9.8365, 2200.0], "azimuth_deg": 1
 
 
 def _smooth(u):
+    """Smootherstep and its derivative: speed and acceleration stay continuous across the gates."""
     u = np.clip(u, 0.0, 1.0)
-    return u * u * (3 - 2 * u), 6 * u * (1 - u)
+    return u**3 * (10 - 15 * u + 6 * u * u), 30 * u * u * (1 - u) ** 2
 
 
 def timing(run: str, x):
@@ -224,8 +227,8 @@ def test_closest_approach_to_surveyed_gates(files, tmp_path):
 
 
 def test_positions_only_at_10hz(files, tmp_path):
-    """Without velocity columns (not-a-knot spline through 10 Hz positions) times and distances still hold;
-    speeds from the interpolant's derivative err up to ~0.08 m/s in the 3 g apexes at 20 m/s."""
+    """Without velocity columns (not-a-knot spline through 10 Hz positions) the figures still hold
+    (measured: speed 0.011 m/s, distance 0.7 mm, turn length 1.2 cm)."""
     out = tmp_path / "cmp.parquet"
     res = run_cli(
         ["compare-runs", str(files["A"]), "--run", str(files["B_10hz_novel"]), "--label", "Anna", "--label", "Berta"]
@@ -234,7 +237,7 @@ def test_positions_only_at_10hz(files, tmp_path):
     assert res.returncode == 0, res.stderr.decode()
     s, _ = summary(out)
     assert list(s) == ["Anna", "Berta"]
-    check_against_truth(s["Berta"], s["Anna"], speed_tol=0.1)
+    check_against_truth(s["Berta"], s["Anna"])
 
 
 def test_three_runs_and_missing_gate_left_out(files, tmp_path):
@@ -304,3 +307,34 @@ def test_plot_compare_png_and_svg(files, tmp_path):
     # a session table is not a comparison
     r = run_cli(["plot", "compare", str(files["A"]), "-o", str(tmp_path / "x.png")])
     assert r.returncode == 1 and "compare-runs" in r.stderr.decode()
+
+
+def test_noisy_rtk_tracks_smoothed_then_compared(files):
+    """10 Hz RTK positions with 2 cm / 3 cm noise -> spline-smooth's library call (GCV) -> closest approach.
+
+    Times still hold to 0.01 s (measured 2.5-4.5 ms over seeds 7, 8).  The noise the spline leaves
+    adds path length, differently per run: the distance differences over the 300 m course err
+    3-5 cm (0.05 m is the noise-free target, checked above), so 0.1 m here; speeds 0.13-0.17 m/s."""
+    from sportfusion.compare import compare_tables
+    from sportfusion.spline_track import smooth_track
+
+    rng = np.random.default_rng(7)
+    gates = sfio.read_table(files["gates"], kind="gates")
+    runs = []
+    for r in ("A", "B"):
+        table, meta = sfio.read_table(io.BytesIO(run_table(r, rate=10.0, events=False, velocity=False)), kind="session")
+        t = table.column("t").to_numpy()
+        pos = np.column_stack([table.column(c).to_numpy() for c in "xyz"])
+        noisy = pos + rng.normal(size=pos.shape) * [0.02, 0.02, 0.03]
+        sig = np.tile([0.02, 0.02, 0.03], (t.size, 1))
+        res = smooth_track(t, noisy, np.full(t.size, 4), sig, lam=None)
+        cols = {"t": t, **{c: res.columns[c] for c in ("x", "y", "z", "vx", "vy", "vz")}}
+        runs.append((r, pa.table(cols), meta))
+    table, info, _ = compare_tables(runs, gates)
+    acc_dt, dist, spd, _, _, _ = truth()
+    d = table.to_pydict()
+    m = np.array(d["run"]) == "B"
+    got = {c: f(np.asarray(d[c], dtype=object)[m]) for c in ("acc_time_diff", "path_distance_diff", "gate_speed")}
+    np.testing.assert_allclose(got["acc_time_diff"], acc_dt, atol=0.01)
+    np.testing.assert_allclose(got["path_distance_diff"], dist["B"] - dist["A"], atol=0.1)
+    np.testing.assert_allclose(got["gate_speed"], spd["B"], atol=0.3)
