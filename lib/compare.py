@@ -435,6 +435,44 @@ def compare(
     return cols, info, warnings
 
 
+def speed_profile(
+    labels: list[str], tracks: list[Track], crossings: list[RunCrossings], order: list[int], step: float
+) -> dict[str, Any]:
+    """Speed along the course: each run's speed at the same place, as a function of the reference's distance.
+
+    The reference's distance since the first common gate is sampled every ``step`` [m]; a point a
+    fraction f along the reference's section between two gates is matched to the point the same
+    fraction f along each run's own section (so the gates line up even when the lines differ in
+    length), and the run's speed there is compared with the reference's.
+
+    Returns
+    -------
+    dict
+        Columns ``run``, ``path_distance`` (the reference's) [m], ``speed`` [m/s] and ``speed_diff``
+        (run minus reference) [m/s], one row per run and distance sample.
+    """
+    dists = []
+    for tr, c in zip(tracks, crossings, strict=True):
+        tg = np.array([c.times[g] for g in order])
+        dists.append((tr, tg, tr.distance(tg)))
+    ref_d = dists[0][2] - dists[0][2][0]
+    grid = np.arange(0.0, ref_d[-1] + 1e-9, step)
+    k = np.clip(np.searchsorted(ref_d, grid, side="right") - 1, 0, len(order) - 2)
+    frac = (grid - ref_d[k]) / (ref_d[k + 1] - ref_d[k])
+    speeds = []
+    for tr, tg, d in dists:
+        target = d[k] + frac * (d[k + 1] - d[k])
+        tt = np.linspace(tg[0], tg[-1], max(int((tg[-1] - tg[0]) / 0.002), 100) + 1)
+        speeds.append(tr.speed(np.interp(target, tr.distance(tt), tt)))
+    cols: dict[str, list[Any]] = {"run": [], "path_distance": [], "speed": [], "speed_diff": []}
+    for lab, sp in zip(labels, speeds, strict=True):
+        cols["run"] += [lab] * grid.size
+        cols["path_distance"] += list(grid)
+        cols["speed"] += list(sp)
+        cols["speed_diff"] += list(sp - speeds[0])
+    return cols
+
+
 def _gate_list(gates: dict[int, Any]) -> str:
     g = sorted(gates)
     if not g:
@@ -500,6 +538,7 @@ def compare_tables(
     runs: list[tuple[str, pa.Table, dict[str, Any]]],
     gates: tuple[pa.Table, dict[str, Any]] | None = None,
     max_gate_distance: float = 5.0,
+    profile_step: float | None = None,
 ) -> tuple[pa.Table, dict[str, Any], list[str]]:
     """Compare session tables gate by gate (what ``compare-runs`` does).
 
@@ -508,13 +547,15 @@ def compare_tables(
     runs : (label, session table, metadata) per run; the first is the reference.
     gates : a ``gates`` table and its metadata, used for runs without gate events.
     max_gate_distance : horizontal distance [m] beyond which a run does not cross a gate.
+    profile_step : when given, also the speed profile (:func:`speed_profile`) every this many metres.
 
     Returns
     -------
     table : pyarrow.Table
         The summary (columns :data:`SUMMARY_COLUMNS`, registered types).
     info : dict
-        ``gates``, ``dropped`` and per run ``crossings`` (``event``/``closest``).
+        ``gates``, ``dropped``, per run ``crossings`` (``event``/``closest``), and ``profile`` (a
+        pyarrow.Table) when ``profile_step`` was given.
     warnings : list of str
     """
     warnings: list[str] = []
@@ -553,6 +594,9 @@ def compare_tables(
     warnings += w
     info["crossings"] = {lab: c.source for lab, c in zip(labels, crossings, strict=True)}
     table = pa.table({name: schema.to_arrow(name, _values(name, v)) for name, v in cols.items()})
+    if profile_step is not None:
+        prof = speed_profile(labels, tracks, crossings, info["gates"], profile_step)
+        info["profile"] = pa.table({name: schema.to_arrow(name, _values(name, v)) for name, v in prof.items()})
     return table, info, warnings
 
 

@@ -188,7 +188,9 @@ COMPARE_PANELS = (
 COMPARE_COLUMNS = ("run", "gate", "path_distance", *(c for c, _, _, _ in COMPARE_PANELS))
 
 
-def compare_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width: float = 13.0) -> Figure:
+def compare_figure(
+    table: pa.Table, meta: dict[str, Any], title: str = "", width: float = 13.0, profile: pa.Table | None = None
+) -> Figure:
     """The four-column run comparison of skiracing-splines Figure 9 from a ``compare-runs`` summary.
 
     One row per gate (course order, top to bottom; the label gives the gate, its
@@ -197,7 +199,10 @@ def compare_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width
     [s], difference of the distance along the path [m] and of the speed at the
     gate [m/s], each run minus the reference.  With one compared run the bars
     are green where the run gains (less time, shorter path, more speed) and red
-    where it loses; with several, one colour per run.
+    where it loses; with several, one colour per run.  ``profile`` (``compare-runs
+    --profile``: run, path_distance [m], speed_diff [m/s]) adds the speed difference
+    along the course to the last column as a line, placed between the gates by the
+    reference's distance.
 
     Raises
     ------
@@ -252,6 +257,22 @@ def compare_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width
                         va="center",
                         fontsize=7,
                     )
+        if profile is not None and col == "gate_speed_diff":
+            schema.require_columns(profile, ("run", "path_distance", "speed_diff"), "plot compare --profile")
+            prun = np.asarray(profile.column("run").to_pylist(), dtype=object)
+            ref_d = np.array([dist[g] for g in order])
+            for k, run in enumerate(others):
+                m = prun == run
+                pd_, sd = schema.floats(profile, "path_distance")[m], schema.floats(profile, "speed_diff")[m]
+                ax.plot(
+                    sd,
+                    np.interp(pd_, ref_d, np.arange(len(order))),
+                    lw=1.0,
+                    label=f"{run} along the course",
+                    color="0.15" if nrun == 1 else colours[k % len(colours)],
+                )
+                vals = np.concatenate([vals, sd])
+            ax.legend(loc="lower right", fontsize=7)
         ax.axvline(0.0, color="0.2", lw=0.8)
         lim = np.nanmax(np.abs(vals)) if np.isfinite(vals).any() else 1.0
         lim = lim if lim > 0 else 1.0

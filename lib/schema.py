@@ -171,6 +171,7 @@ for _c in (
     "turn_length",
 ):
     register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
+register("speed_diff", F64, "m/s", "speed at the same place along the course: this run minus the reference")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {

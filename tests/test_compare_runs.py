@@ -240,6 +240,7 @@ def test_positions_only_at_10hz(files, tmp_path):
     check_against_truth(s["Berta"], s["Anna"])
 
 
+@pytest.mark.slow
 def test_three_runs_and_missing_gate_left_out(files, tmp_path):
     out = tmp_path / "cmp.parquet"
     res = run_cli(
@@ -290,6 +291,7 @@ def test_no_run_is_a_usage_error(files):
     assert res.returncode == 2 and "--run" in res.stderr.decode()
 
 
+@pytest.mark.slow
 def test_plot_compare_png_and_svg(files, tmp_path):
     pytest.importorskip("matplotlib")
     from test_plot import check_png, check_svg
@@ -338,3 +340,38 @@ def test_noisy_rtk_tracks_smoothed_then_compared(files):
     np.testing.assert_allclose(got["acc_time_diff"], acc_dt, atol=0.01)
     np.testing.assert_allclose(got["path_distance_diff"], dist["B"] - dist["A"], atol=0.1)
     np.testing.assert_allclose(got["gate_speed"], spd["B"], atol=0.3)
+
+
+@pytest.mark.slow
+def test_speed_profile_along_the_course(files, tmp_path):
+    """--profile: each run's speed at the same fraction of each section, against closed-form truth."""
+    from scipy.optimize import brentq
+
+    out, prof = tmp_path / "cmp.parquet", tmp_path / "prof.parquet"
+    res = run_cli(
+        ["compare-runs", str(files["A"]), "--run", str(files["B"]), "--profile", str(prof)]
+        + ["--profile-step", "2.5", "-o", str(out)]
+    )
+    assert res.returncode == 0, res.stderr.decode()
+    table, meta = sfio.read_table(prof, kind="summary")
+    assert meta["compare"]["profile_step_m"] == 2.5
+    run = np.array(table.column("run").to_pylist())
+    s = table.column("path_distance").to_numpy()[run == "B"]
+    sd = table.column("speed_diff").to_numpy()[run == "B"]
+    assert np.all(table.column("speed_diff").to_numpy()[run == "A"] == 0)
+    np.testing.assert_allclose(np.diff(s), 2.5)
+    _, dist, _, _, _, _ = truth()
+
+    def x_at_distance(r, d):
+        return brentq(lambda x: arc(r, GATES_X[0], x) - d, GATES_X[0] - 1e-9, GATES_X[-1] + 1e-9, xtol=1e-10)
+
+    for i in range(0, s.size, 7):  # every 17.5 m
+        k = min(np.searchsorted(dist["A"], s[i], side="right") - 1, len(GATES_X) - 2)
+        frac = (s[i] - dist["A"][k]) / (dist["A"][k + 1] - dist["A"][k])
+        xb = x_at_distance("B", dist["B"][k] + frac * (dist["B"][k + 1] - dist["B"][k]))
+        xa = x_at_distance("A", s[i])
+        assert sd[i] == pytest.approx(speed("B", xb) - speed("A", xa), abs=0.05), (i, s[i])
+    png = tmp_path / "p.png"
+    r = run_cli(["plot", "compare", str(out), "--profile", str(prof), "-o", str(png)])
+    assert r.returncode == 0, r.stderr.decode()
+    assert png.stat().st_size > 20_000

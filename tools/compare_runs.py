@@ -67,8 +67,29 @@ def _labels(inputs: list[str | None], given: tuple[str, ...]) -> list[str]:
     type=click.FloatRange(0, min_open=True),
     help="With --gates: a run passing a gate farther than this [m] (horizontally) does not cross it.",
 )
+@click.option(
+    "--profile",
+    "profile_path",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Also write the speed difference as a function of distance to this summary table (run, "
+    "path_distance [m] of the reference, speed, speed_diff [m/s]); `plot compare --profile` draws it.",
+)
+@click.option(
+    "--profile-step",
+    default=1.0,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="Spacing of the --profile samples along the reference's path [m].",
+)
 def main(
-    tool: Tool, runs: tuple[str, ...], gates_path: str | None, labels: tuple[str, ...], max_gate_distance: float
+    tool: Tool,
+    runs: tuple[str, ...],
+    gates_path: str | None,
+    labels: tuple[str, ...],
+    max_gate_distance: float,
+    profile_path: str | None,
+    profile_step: float,
 ) -> None:
     """Compare runs of one course gate by gate, as in Figure 9 of the ski
     racing splines paper. The reference run comes on standard input (or INPUT)
@@ -85,7 +106,9 @@ def main(
     the path [m], speed at the gate [m/s], turn side (L/R), speed at the turn
     switches before and after the gate [m/s] and the turn's path length [m],
     each with its difference to the reference (run minus reference: positive
-    time = slower). Draw it with `plot compare`."""
+    time = slower). Draw it with `plot compare`. --profile FILE adds the
+    speed difference as a function of the distance along the course, each
+    section matched by its fraction between the gates."""
     ref_table, ref_meta = tool.read()
     names = _labels([tool.source, *runs], labels)
     require_trajectory(ref_table, names[0])
@@ -98,7 +121,9 @@ def main(
     gates = None
     if gates_path is not None:
         gates = sfio.read_table(gates_path, kind="gates", what=f"gates file {gates_path}")
-    summary, info, warnings = compare_tables(tables, gates, max_gate_distance)
+    summary, info, warnings = compare_tables(
+        tables, gates, max_gate_distance, profile_step if profile_path is not None else None
+    )
     for w in warnings:
         tool.warn(w)
     meta = sfmeta.new_meta("summary", (ref_meta.get("time") or {}).get("epoch_utc"))
@@ -114,4 +139,8 @@ def main(
     }
     meta["provenance"] = list(ref_meta.get("provenance", []))
     tool.info(f"{len(names)} runs compared over {len(info['gates'])} common gates (reference {names[0]})")
+    if profile_path is not None:
+        pmeta = {**meta, "compare": {**meta["compare"], "profile_step_m": profile_step}}
+        pmeta = sfmeta.add_provenance(pmeta, tool.name, dict(tool.params))
+        sfio.write_table(info["profile"], pmeta, profile_path)
     tool.write(summary, meta)

@@ -96,11 +96,19 @@ def track_cmd(
     writes_table=False,
     example="""
   compare-runs anna.parquet --run berta.parquet | plot compare -o compare.png
-  plot compare compare.parquet -o compare.svg --title "Downhill, St. Moritz" """,
+  compare-runs anna.parquet --run berta.parquet --profile speed.parquet -o compare.parquet
+  plot compare compare.parquet --profile speed.parquet -o compare.svg --title "Downhill, St. Moritz" """,
     input_help="Summary table written by compare-runs; default: standard input.",
 )
 @_image_options
-def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
+@click.option(
+    "--profile",
+    "profile_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Speed profile written by compare-runs --profile: adds the speed difference [m/s] along the course.",
+)
+def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_path: str | None) -> None:
     """Draw the run comparison of Figure 9 of the ski racing splines paper
     from a compare-runs summary: one row per gate, four columns: accumulated
     time difference [s], gate-to-gate time difference [s], difference of the
@@ -109,7 +117,10 @@ def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
     from sportfusion.plots import compare_figure, figure_format, render
 
     table, meta = tool.read(kind=None)
-    fig = compare_figure(table, meta, title or "")
+    profile = None
+    if profile_path is not None:
+        profile, _ = sfio.read_table(profile_path, kind="summary", what=f"profile {profile_path}")
+    fig = compare_figure(table, meta, title or "", profile=profile)
     if meta.get("kind") != "summary":
         raise InputError(f"the input is a '{meta.get('kind')}' table; expected the summary written by compare-runs")
     sfio.write_bytes(render(fig, figure_format(output), dpi), output)
