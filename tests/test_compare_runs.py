@@ -1,9 +1,7 @@
 """compare-runs: two simulated runs of one course with known section time offsets; plot compare; bad input.
 
-The runs follow sinusoidal lines y = A sin(2 pi x / 50 m) down a 30 % slope, with the gates at the
-apexes (x = 12.5 m + 25 m k, on the outside of the turn) and the turn switches at the inflections
-(x = 25 m k).  Run B takes a wider line (A = 5.6 m instead of 5 m) and is delayed by a known
-amount in each section (smootherstep within the section).  Truth comes from the closed-form
+The runs come from :mod:`sportfusion.sim.gated_runs`: sinusoidal lines down a slope, gates at the apexes,
+run B on a wider line and delayed by a known amount per section.  Truth comes from the closed-form
 timing law and scipy quad arc lengths, independent of the library's Hermite/Gauss-Legendre code.
 """
 
@@ -15,125 +13,18 @@ import numpy as np
 import pyarrow as pa
 import pytest
 from conftest import run_cli
-from scipy.integrate import quad
 
 from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-
-LAMBDA = 50.0  # turn wavelength along x [m]
-SLOPE = 0.3  # dz/dx [1]
-GATES_X = 12.5 + 25.0 * np.arange(12)  # apexes [m]
-GATE_IDS = np.arange(1, 13)
-SECTION_DT = np.array([0.05, -0.03, 0.12, 0.0, -0.08, 0.07, 0.02, -0.11, 0.04, 0.09, -0.02])  # B minus A [s]
-AMP = {"A": 5.0, "B": 5.6}
-FRAME = {"name": "course", "origin": [46.4975, 9.8365, 2200.0], "azimuth_deg": 160.0, "axes": "x forward"}
-
-
-def _smooth(u):
-    """Smootherstep and its derivative: speed and acceleration stay continuous across the gates."""
-    u = np.clip(u, 0.0, 1.0)
-    return u**3 * (10 - 15 * u + 6 * u * u), 30 * u * u * (1 - u) ** 2
-
-
-def timing(run: str, x):
-    """Time on the run's clock [s] and dt/dx [s/m] at course position x [m]."""
-    x = np.asarray(x, float)
-    t = x / 15.0 + 0.3 * np.sin(2 * np.pi * x / 130.0)
-    dt = 1 / 15.0 + 0.3 * 2 * np.pi / 130.0 * np.cos(2 * np.pi * x / 130.0)
-    if run == "B":
-        t = t + 2.5  # B's clock started elsewhere: only differences count
-        for k, d in enumerate(SECTION_DT):
-            a, b = GATES_X[k], GATES_X[k + 1]
-            s, ds = _smooth((x - a) / (b - a))
-            t = t + d * s
-            dt = dt + d * ds / (b - a)
-    return t, dt
-
-
-def path(run: str, x):
-    """Position [m] and d(position)/dx [1] of the run's line."""
-    x = np.asarray(x, float)
-    k = 2 * np.pi / LAMBDA
-    a = AMP[run]
-    p = np.stack([x, a * np.sin(k * x), SLOPE * x], axis=-1)
-    dp = np.stack([np.ones_like(x), a * k * np.cos(k * x), np.full_like(x, SLOPE)], axis=-1)
-    return p, dp
-
-
-def arc(run: str, x0: float, x1: float) -> float:
-    return quad(lambda x: float(np.linalg.norm(path(run, x)[1])), x0, x1, epsabs=1e-10, limit=200)[0]
-
-
-def speed(run: str, x: float) -> float:
-    return float(np.linalg.norm(path(run, x)[1]) / timing(run, x)[1])
-
-
-def x_at(run: str, t):
-    """Invert the timing law (Newton on a dense-grid start)."""
-    grid = np.linspace(0.0, 300.0, 30001)
-    x = np.interp(t, timing(run, grid)[0], grid)
-    for _ in range(6):
-        tt, dt = timing(run, x)
-        x = x - (tt - t) / dt
-    return x
-
-
-def run_table(run: str, *, rate=20.0, events=True, velocity=True, gate_ids=GATE_IDS, shift=(0.0, 0.0)) -> bytes:
-    """A session table of the run: x y z (+ vx vy vz) at ``rate`` [Hz], gate event rows at the true crossings."""
-    t0, t1 = timing(run, 2.0)[0], timing(run, 298.0)[0]
-    t = np.arange(np.ceil(t0 * rate), np.floor(t1 * rate)) / rate
-    x = x_at(run, t)
-    p, dp = path(run, x)
-    v = dp / timing(run, x)[1][:, None]
-    p = p + np.array([shift[0], shift[1], 0.0])
-    cols = {"t": t, "x": p[:, 0], "y": p[:, 1], "z": p[:, 2]}
-    if velocity:
-        cols.update(vx=v[:, 0], vy=v[:, 1], vz=v[:, 2])
-    n = t.size
-    ev = [None] * n
-    gate = [None] * n
-    if events:
-        tg = timing(run, GATES_X)[0]
-        cols = {k: np.concatenate([c, tg if k == "t" else np.full(tg.size, np.nan)]) for k, c in cols.items()}
-        ev += ["gate"] * tg.size
-        gate += [int(g) for g in gate_ids]
-    order = np.argsort(cols["t"], kind="stable")
-    arrays = {k: pa.array(c[order], mask=np.isnan(c[order])) for k, c in cols.items()}
-    if events:
-        arrays["event"] = pa.array([ev[i] for i in order], type=pa.string())
-        arrays["gate"] = pa.array([gate[i] for i in order], type=pa.int32())
-    meta = sfmeta.new_meta("session", 1.77e9 + (0.0 if run == "A" else 3600.0))
-    meta["frame"] = FRAME
-    return sfio.table_to_bytes(pa.table(arrays), meta)
-
-
-def gates_table(ids=GATE_IDS) -> bytes:
-    side = np.sign(np.sin(2 * np.pi * GATES_X / LAMBDA))
-    y = side * (max(AMP.values()) + 1.5)  # outside of each turn
-    table = pa.table(
-        {
-            "gate": pa.array(ids, type=pa.int32()),
-            "x": GATES_X,
-            "y": y,
-            "z": SLOPE * GATES_X,
-        }
-    )
-    meta = sfmeta.new_meta("gates")
-    meta["frame"] = FRAME
-    return sfio.table_to_bytes(table, meta)
-
-
-def truth():
-    """Expected per-gate values for run B relative to run A."""
-    xs = GATES_X
-    acc_dt = np.concatenate(([0.0], np.cumsum(SECTION_DT)))
-    dist = {r: np.array([arc(r, xs[0], x) for x in xs]) for r in AMP}
-    spd = {r: np.array([speed(r, x) for x in xs]) for r in AMP}
-    inflect = np.arange(len(xs) + 1) * 25.0  # turn switches
-    entry = {r: np.array([speed(r, x) for x in inflect[:-1]]) for r in AMP}
-    exit_ = {r: np.array([speed(r, x) for x in inflect[1:]]) for r in AMP}
-    length = {r: np.array([arc(r, a, b) for a, b in zip(inflect[:-1], inflect[1:], strict=True)]) for r in AMP}
-    return acc_dt, dist, spd, entry, exit_, length
+from sportfusion.sim.gated_runs import (
+    GATE_IDS,
+    GATES_X,
+    SECTION_DT,
+    arc,
+    gates_table,
+    run_table,
+    speed,
+    truth,
+)
 
 
 @pytest.fixture(scope="module")
@@ -333,10 +224,13 @@ def test_noisy_rtk_tracks_smoothed_then_compared(files):
         cols = {"t": t, **{c: res.columns[c] for c in ("x", "y", "z", "vx", "vy", "vz")}}
         runs.append((r, pa.table(cols), meta))
     table, info, _ = compare_tables(runs, gates)
-    acc_dt, dist, spd, _, _, _ = truth()
+    acc_dt, dist, spd, _, _, length = truth()
     d = table.to_pydict()
     m = np.array(d["run"]) == "B"
-    got = {c: f(np.asarray(d[c], dtype=object)[m]) for c in ("acc_time_diff", "path_distance_diff", "gate_speed")}
+    got = {
+        c: f(np.asarray(d[c], dtype=object)[m])
+        for c in ("acc_time_diff", "path_distance_diff", "gate_speed", "turn_length")
+    }
     np.testing.assert_allclose(got["acc_time_diff"], acc_dt, atol=0.01)
     np.testing.assert_allclose(got["path_distance_diff"], dist["B"] - dist["A"], atol=0.1)
     np.testing.assert_allclose(got["gate_speed"], spd["B"], atol=0.3)
