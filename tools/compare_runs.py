@@ -114,6 +114,10 @@ def main(
     require_trajectory(ref_table, names[0])
     if not runs:
         raise click.UsageError("give at least one --run FILE to compare with the reference")
+    if "-" in runs:
+        raise click.BadParameter(
+            "standard input carries the reference run; give each --run as a file", param_hint="--run"
+        )
     tables = [(names[0], ref_table, ref_meta)]
     for label, path in zip(names[1:], runs, strict=True):
         table, meta = sfio.read_table(path, kind="session", what=f"run {path}")
