@@ -345,7 +345,7 @@ def compare(
     columns : dict
         :data:`SUMMARY_COLUMNS` -> list of values, one row per (run, common gate), runs in input order.
     info : dict
-        ``gates`` (common gates in course order), ``dropped`` (gate -> runs missing it).
+        ``gates`` (common gates in course order), ``dropped`` (run label -> the gates it lacks that others have).
     warnings : list of str
     """
     warnings: list[str] = []

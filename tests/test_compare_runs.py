@@ -15,6 +15,7 @@ import pytest
 from conftest import run_cli
 
 from sportfusion import io as sfio
+from sportfusion.errors import InputError
 from sportfusion.sim.gated_runs import (
     GATE_IDS,
     GATES_X,
@@ -269,3 +270,22 @@ def test_speed_profile_along_the_course(files, tmp_path):
     r = run_cli(["plot", "compare", str(out), "--profile", str(prof), "-o", str(png)])
     assert r.returncode == 0, r.stderr.decode()
     assert png.stat().st_size > 20_000
+
+
+def test_gates_given_as_lat_lon_h(files):
+    """A gates table in WGS84 is converted into the runs' frame: the same crossings as with x y."""
+    from sportfusion.compare import compare_tables
+    from sportfusion.frames import Frame
+    from sportfusion.sim.gated_runs import FRAME
+
+    gates, gmeta = sfio.read_table(files["gates"], kind="gates")
+    lat, lon, h = Frame.from_meta(FRAME).to_geodetic(*(gates.column(c).to_numpy() for c in "xyz"))
+    geo = pa.table({"gate": gates.column("gate"), "lat": lat, "lon": lon, "h": h})
+    runs = [(r, *sfio.read_table(files[f"{r}_plain"], kind="session")) for r in ("A", "B")]
+    by_xy, _, _ = compare_tables(runs, (gates, gmeta))
+    by_geo, _, _ = compare_tables(runs, (geo, {k: v for k, v in gmeta.items() if k != "frame"}))
+    np.testing.assert_allclose(by_geo.column("crossing_t").to_numpy(), by_xy.column("crossing_t").to_numpy(), atol=1e-6)
+    # a gates table in x y of another frame is refused
+    other = {**gmeta, "frame": {**FRAME, "azimuth_deg": 10.0}}
+    with pytest.raises(InputError, match="different local frames"):
+        compare_tables(runs, (gates, other))
