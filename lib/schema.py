@@ -175,6 +175,30 @@ register("turn_d_in", F64, "m", "distance from the turn-entrance switch position
 register("turn_d_out", F64, "m", "distance from the turn-exit switch position to the gate")
 register("turn_d_cross", F64, "m", "distance from the estimated position at the crossing to the gate")
 register("turn_length", F64, "m", "3-D path length of the turn, switch to switch")
+# run-vs-run comparison (compare-runs; skiracing-splines Figure 9), one row per run and common gate
+register("run", STR, "", "run label (the first run of a comparison is the reference)")
+register("crossing_t", F64, "s", "gate crossing time on the run's own clock (its t)")
+register("crossing_source", STR, "", "how the crossing was found: event (gate event row) or closest (closest approach)")
+register("acc_time", F64, "s", "time since the first common gate")
+register("section_time", F64, "s", "time from the previous common gate (gate-to-gate)")
+register("path_distance", F64, "m", "distance integrated along the trajectory since the first common gate")
+register("section_distance", F64, "m", "distance along the trajectory from the previous common gate")
+register("gate_speed", F64, "m/s", "instantaneous speed at the gate crossing")
+register("turn_entry_speed", F64, "m/s", "speed at the turn switch before the gate (start of the turn)")
+register("turn_exit_speed", F64, "m/s", "speed at the turn switch after the gate (end of the turn)")
+register("turn_length", F64, "m", "path length of the turn, from switch to switch")
+for _c in (
+    "acc_time",
+    "section_time",
+    "path_distance",
+    "section_distance",
+    "gate_speed",
+    "turn_entry_speed",
+    "turn_exit_speed",
+    "turn_length",
+):
+    register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
+register("speed_diff", F64, "m/s", "speed at the same place along the course: this run minus the reference")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
