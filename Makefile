@@ -35,10 +35,17 @@ format: $(STAMP)
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/make_fixtures.py
 
+# a simulated jump on Oberstdorf HS106 from the raw files a user would have (fixtures/skijump/raw,
+# made by fixtures/make_skijump.py), through the tools, against its truth
 demo: $(STAMP)
 	mkdir -p $(DEMO)
-	$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/session.parquet
+	$(BIN)/ingest fixtures/skijump/raw/phyphox.zip fixtures/skijump/raw/gnss.nmea -o $(DEMO)/session.parquet
 	$(BIN)/inspect $(DEMO)/session.parquet
+	$(BIN)/gps2hill $(DEMO)/session.parquet --hill oberstdorf_hs106 -o $(DEMO)/hill.parquet
+	$(BIN)/detect-events --kind jump $(DEMO)/hill.parquet -o $(DEMO)/events.parquet
+	$(BIN)/plot hill --hill oberstdorf_hs106 -o $(DEMO)/hill.png
+	$(BIN)/plot track $(DEMO)/events.parquet -o $(DEMO)/track.png
+	$(BIN)/evaluate $(DEMO)/events.parquet --truth fixtures/skijump/truth.parquet --gnss --format text
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,bench]'
