@@ -45,6 +45,7 @@ demo: $(STAMP)
 	mkdir -p $(DEMO)/plots
 	$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/recording.parquet
 	$(BIN)/inspect $(DEMO)/recording.parquet | head -n 25
+	$(BIN)/plot hill --hill oberstdorf_hs106 -o $(DEMO)/plots/hill-oberstdorf_hs106.png
 	$(MAKE) --no-print-directory -f pipelines/batch.mk SESSIONS=fixtures OUT=$(DEMO)
 	for f in $(DEMO)/*/plots/*.png; do s=$${f#$(DEMO)/}; cp "$$f" "$(DEMO)/plots/$${s%%/*}-$$(basename $$f)"; done
 	for f in $(DEMO)/*/evaluation.txt $(DEMO)/*/table7.txt; do [ -f "$$f" ] || continue; \

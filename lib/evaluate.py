@@ -198,8 +198,12 @@ def errors(
             err[name] = e[i_est] - tr[i_true]
     v_true = _truth_velocity_ned(truth, azimuth_deg)
     if gnss:
-        names = ("vel_n", "vel_e", "vel_d")
-        v_est = np.stack([_col(est, n) for n in names], axis=-1) if all(n in est.column_names for n in names) else None
+        # GNSS velocity is NED already; each component stands alone (an NMEA log has no vel_d)
+        v_est = None
+        for k, name in enumerate(("vel_n", "vel_e", "vel_d")):
+            e = _col(est, name)
+            if e is not None and v_true is not None:
+                err[name] = e[i_est] - v_true[i_true, k]
     else:
         names = ("vx", "vy", "vz")
         v_est = (
