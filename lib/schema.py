@@ -148,6 +148,7 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+register("ref_jump_length", F64, "m", "reference jump length (e.g. read from a video, L_VR of skijump Table 7)")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
