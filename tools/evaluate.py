@@ -32,7 +32,8 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
   evaluate est.parquet --truth truth.parquet --format text
   evaluate est.parquet --truth truth.parquet -o summary.parquet
   gps2hill s.parquet --hill oberstdorf_hs106 | evaluate --truth truth.parquet --gnss --format text
-  jump-metrics est.parquet --hill oberstdorf_hs106 | evaluate --video jumps_video.parquet --format text""",
+  video-jumplength landing1.mp4 landing2.mp4 > vr.parquet    (L_VR, one row per video)
+  evaluate tr.parquet --video vr.parquet --format text        (tr.parquet: jump-metrics output, L_TR)""",
     input_help="Estimate table (Parquet, e.g. rts-smooth output); default: standard input.",
 )
 @click.option(
