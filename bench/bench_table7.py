@@ -85,7 +85,10 @@ def main() -> None:
         d = Path(args.keep or tmp)
         d.mkdir(parents=True, exist_ok=True)
         tr_tables, truth_l, videos = [], [], []
-        print(f"== Table 7: {len(DISTANCES)} simulated jumps on {args.hill}, raw files -> L_TR, video -> L_VR")
+        src_name = (
+            "L_TR := truth" if args.tr_from_truth else ("session" if args.from_session else "raw files") + " -> L_TR"
+        )
+        print(f"== Table 7: {len(DISTANCES)} simulated jumps on {args.hill}, {src_name}, video -> L_VR")
         for k, dist in enumerate(DISTANCES, 1):
             raw, video = d / f"raw{k}", d / f"landing{k}.mp4"
             truth, session = d / f"truth{k}.parquet", d / f"session{k}.parquet"

@@ -166,13 +166,17 @@ def speed(folder: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
-        "--n", type=int, default=N_CASES, help=f"rendered landings for the accuracy table (default {N_CASES})"
+        "--n",
+        type=int,
+        default=N_CASES,
+        help=f"rendered landings for the accuracy table (default {N_CASES}; 0: speed only)",
     )
     ap.add_argument("--quick", action="store_true", help="5 landings and no speed run")
     ap.add_argument("--no-speed", action="store_true", help="skip the 10 s 1080p speed run")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench_video_") as tmp:
-        accuracy(Path(tmp), 5 if args.quick else args.n)
+        if args.quick or args.n > 0:
+            accuracy(Path(tmp), 5 if args.quick else args.n)
         if not (args.quick or args.no_speed):
             speed(Path(tmp))
 
