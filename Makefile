@@ -63,3 +63,8 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) $(DEMO) $(BATCH) .pytest_cache .hypothesis *.egg-info
+
+# skijump Table 7 end to end (5 simulated jumps: raw files -> rts-smooth -> jump-metrics vs video-jumplength)
+.PHONY: table7
+table7: $(STAMP)
+	$(BIN)/python bench/bench_table7.py

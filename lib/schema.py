@@ -199,6 +199,7 @@ for _c in (
 ):
     register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
 register("speed_diff", F64, "m/s", "speed at the same place along the course: this run minus the reference")
+register("ref_jump_length", F64, "m", "reference jump length (e.g. read from a video, L_VR of skijump Table 7)")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
