@@ -720,6 +720,10 @@ def _estimate_columns(
     for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
         for k, a in enumerate("xyz"):
             cols[f"{name}_{a}"] = x[:, sl][:, k]
+    # eq 50: the magnetometer the estimate predicts (the paper's Figure 12 sets it beside the measurement)
+    mag = (1.0 + x[:, mdl.I_SM]) * (M @ inp.m_o) + x[:, mdl.I_BM]
+    for k, a in enumerate("xyz"):
+        cols[f"mag_pred_{a}"] = mag[:, k]
     if cov is None:
         return cols
     d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))

@@ -155,6 +155,13 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+for _a in "xyz":
+    register(
+        f"mag_pred_{_a}",
+        F64,
+        "uT",
+        f"magnetometer predicted by the smoother's estimate (skijump eq 50), body {_a} axis",
+    )
 # batch summary (python -m sportfusion.batch)
 register("session", STR, "", "session name (its folder in a sessions folder)")
 register("sport", STR, "", "sport of a session: skijump, skirace, gates, climbing")
