@@ -134,8 +134,13 @@ def _rk4(x, u0, u1, dt, g0, mno, out, M):
 
 @njit(cache=True)
 def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
-    """Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T, Gamma = (dt I + A dt^2 / 2) F (as the reference)."""
-    A = np.zeros((N, N))
+    """Top rows of ``Phi = I + A dt + (A dt)^2 / 2`` and ``Qd = Gamma Q Gamma^T`` (eqs 7, 9, 13).
+
+    The parameter rows of ``A`` are zero (eq 22), so ``Phi = [[Phi1, Phi2], [0, I]]`` with
+    ``Phi[:10]`` (10, 22) written to ``Phi`` and ``Qd`` nonzero only in its top-left 10 x 10
+    block, written to ``Qd`` (10, 10).  Same arithmetic as the dense reference, without the zeros.
+    """
+    A = np.zeros((10, N))
     _mbo(x[6:10], M)
     _dmdq(x[6:10], D)
     v = x[3:6]
@@ -169,32 +174,69 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
     A[8, 6], A[8, 7], A[8, 9] = 0.5 * wy, -0.5 * wz, 0.5 * wx
     A[9, 6], A[9, 7], A[9, 8] = 0.5 * wz, 0.5 * wy, -0.5 * wx
     # -0.5 Xi(q)
-    xi = np.array([[-q1, -q2, -q3], [q0, -q3, q2], [q3, q0, -q1], [-q2, q1, q0]])
-    for i in range(4):
+    xi0 = (-q1, -q2, -q3)
+    xi1 = (q0, -q3, q2)
+    xi2 = (q3, q0, -q1)
+    xi3 = (-q2, q1, q0)
+    for j in range(3):
+        A[6, 10 + j] = -0.5 * xi0[j]
+        A[7, 10 + j] = -0.5 * xi1[j]
+        A[8, 10 + j] = -0.5 * xi2[j]
+        A[9, 10 + j] = -0.5 * xi3[j]
+    # F (rows 0..9; the rest is zero): gyro noise enters like the gyro bias, acc noise like -I
+    F = np.zeros((10, 6))
+    for i in range(3, 10):
         for j in range(3):
-            A[6 + i, 10 + j] = -0.5 * xi[i, j]
-    F = np.zeros((N, 6))
+            F[i, j] = A[i, 10 + j]
     for i in range(3):
-        for j in range(3):
-            F[3 + i, j] = A[3 + i, 10 + j]
         F[3 + i, 3 + i] = -1.0
-    for i in range(4):
-        for j in range(3):
-            F[6 + i, j] = A[6 + i, 10 + j]
-    Adt = A * dt
-    AA = Adt @ Adt
-    for i in range(N):
+    for i in range(10):
         for j in range(N):
-            Phi[i, j] = Adt[i, j] + 0.5 * AA[i, j]
+            a2 = 0.0
+            for m in range(10):
+                a2 += A[i, m] * A[m, j]
+            Phi[i, j] = A[i, j] * dt + 0.5 * dt * dt * a2
         Phi[i, i] += 1.0
-    G = dt * F + (0.5 * dt) * (Adt @ F)
-    for i in range(N):
-        for j in range(i, N):
+    G = np.empty((10, 6))
+    for i in range(10):
+        for j in range(6):
+            af = 0.0
+            for m in range(10):
+                af += A[i, m] * F[m, j]
+            G[i, j] = dt * F[i, j] + 0.5 * dt * dt * af
+    for i in range(10):
+        for j in range(i, 10):
             s = 0.0
             for m in range(6):
                 s += G[i, m] * qd[m] * G[j, m]
             Qd[i, j] = s
             Qd[j, i] = s
+
+
+@njit(cache=True)
+def _predict_cov(P, Phi, Qd, out):
+    """``out = Phi P Phi^T + Qd`` for ``Phi = [[Phi[:, :10], Phi[:, 10:]], [0, I]]`` (10 x 22 top rows given)."""
+    T = np.empty((10, N))  # Phi_top P
+    for i in range(10):
+        for j in range(N):
+            s = 0.0
+            for m in range(N):
+                s += Phi[i, m] * P[m, j]
+            T[i, j] = s
+    for i in range(10):
+        for j in range(i, 10):
+            s = Qd[i, j]
+            for m in range(N):
+                s += T[i, m] * Phi[j, m]
+            out[i, j] = s
+            out[j, i] = s
+        for j in range(10, N):
+            out[i, j] = T[i, j]
+            out[j, i] = T[i, j]
+    for i in range(10, N):
+        for j in range(i, N):
+            out[i, j] = P[i, j]
+            out[j, i] = P[i, j]
 
 
 @njit(cache=True)
@@ -263,8 +305,9 @@ def ski_ekf_rts(
     resid = np.full((n, 13), np.nan)
     M = np.empty((3, 3))
     D = np.empty((4, 3, 3))
-    Phi = np.empty((N, N))
-    Qd = np.empty((N, N))
+    Phi = np.empty((10, N))
+    Qd = np.empty((10, 10))
+    Pn = np.empty((N, N))
     h = np.zeros(N)
     x = x0.copy()
     P = P0.copy()
@@ -346,12 +389,8 @@ def ski_ekf_rts(
             dt = t[k + 1] - t[k]
             _rk4(x, u[k], u[k + 1], dt, g0, mno, xn, M)
             _phi_qd(x, u[k], dt, g0, mno, qd, Phi, Qd, M, D)
-            P = Phi @ P @ Phi.T + Qd
-            for i in range(N):
-                for j in range(i + 1, N):
-                    v = 0.5 * (P[i, j] + P[j, i])
-                    P[i, j] = v
-                    P[j, i] = v
+            _predict_cov(P, Phi, Qd, Pn)
+            P[:, :] = Pn
             if not _ok(P):
                 return x_filt, x_filt, Pbuf, resid, k + 1, 1
             x = xn.copy()
@@ -361,46 +400,64 @@ def ski_ekf_rts(
     Ps = np.empty((N, N))
     _unpack(Pbuf[n - 1], Ps)
     Pf = np.empty((N, N))
+    Pp = np.empty((N, N))
+    Y = np.empty((N, N))
+    Ct = np.empty((N, N))
+    Dm = np.empty((N, N))
+    E = np.empty((N, N))
+    dx = np.empty(N)
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
         _phi_qd(x_filt[k], u[k], dt, g0, mno, qd, Phi, Qd, M, D)
-        B = Phi @ Pf  # (P_f Phi^T)^T
-        Pp = B @ Phi.T + Qd
-        for i in range(N):
-            for j in range(i + 1, N):
-                v = 0.5 * (Pp[i, j] + Pp[j, i])
-                Pp[i, j] = v
-                Pp[j, i] = v
-        ok = True
+        _predict_cov(Pf, Phi, Qd, Pp)
         for i in range(N):
             if not (Pp[i, i] > 0.0):
-                ok = False
-        if not ok:
-            return x_filt, x_s, Pbuf, resid, k + 1, 2
+                return x_filt, x_s, Pbuf, resid, k + 1, 2
         L = np.linalg.cholesky(Pp)
-        # C^T = Pp^{-1} B by two triangular solves
-        Y = np.empty((N, N))
+        # C^T = Pp^{-1} (Phi Pf) by two triangular solves; Phi Pf = [Phi_top Pf; Pf[10:]]
         for c in range(N):
             for i in range(N):
-                s = B[i, c]
+                if i < 10:
+                    s = 0.0
+                    for m in range(N):
+                        s += Phi[i, m] * Pf[m, c]
+                else:
+                    s = Pf[i, c]
                 for j in range(i):
                     s -= L[i, j] * Y[j, c]
                 Y[i, c] = s / L[i, i]
-        Ct = np.empty((N, N))
         for c in range(N):
             for i in range(N - 1, -1, -1):
                 s = Y[i, c]
                 for j in range(i + 1, N):
                     s -= L[j, i] * Ct[j, c]
                 Ct[i, c] = s / L[i, i]
-        C = Ct.T
-        x_s[k] = x_filt[k] + C @ (x_s[k + 1] - x_pred[k + 1])
-        Pn = Pf + C @ (Ps - Pp) @ Ct
+        # x_s = x_f + C (x_s[k+1] - x_pred[k+1]);  P_s = P_f + C (P_s[k+1] - P_pred) C^T
         for i in range(N):
+            dx[i] = x_s[k + 1, i] - x_pred[k + 1, i]
+        for i in range(N):
+            s = x_filt[k, i]
+            for j in range(N):
+                s += Ct[j, i] * dx[j]
+            x_s[k, i] = s
+        for i in range(N):
+            for j in range(N):
+                Dm[i, j] = Ps[i, j] - Pp[i, j]
+        for i in range(N):  # E = C Dm
+            for j in range(N):
+                s = 0.0
+                for m in range(N):
+                    s += Ct[m, i] * Dm[m, j]
+                E[i, j] = s
+        for i in range(N):  # Ps = Pf + E C^T (symmetric: upper triangle, mirrored)
             for j in range(i, N):
-                v = 0.5 * (Pn[i, j] + Pn[j, i])
-                Ps[i, j] = v
-                Ps[j, i] = v
+                s = Pf[i, j]
+                for m in range(N):
+                    s += E[i, m] * Ct[m, j]
+                Ps[i, j] = s
+        for i in range(N):
+            for j in range(i + 1, N):
+                Ps[j, i] = Ps[i, j]
         _pack(Ps, Pbuf[k])
     return x_filt, x_s, Pbuf, resid, -1, 0
