@@ -114,6 +114,7 @@ class SmootherConfig:
     max_gap: float = 1.0
     passes: int = 5
     pass_tol_deg: float = 0.05
+    pass_window: float = 120.0
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -627,10 +628,11 @@ def smooth_inputs(
     independent segments (each initialised from its own first samples); the
     results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
     the smoothed initial state (mean only, same ``P0``) until the initial attitude
-    changes by less than ``cfg.pass_tol_deg`` or ``passes`` runs are done: this
+    changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
     re-linearises the start, where an attitude error of tens of degrees (gyro
     biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
-    regime.
+    regime.  These passes cover the first ``cfg.pass_window`` seconds; one final
+    pass then covers the whole segment (a single pass when the window covers it).
     """
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
@@ -644,24 +646,36 @@ def smooth_inputs(
                 "expected GNSS during every recorded stretch"
             )
         x0, P0 = initial_state(seg, cfg)
-        if fast is None:
-            propagate, measure = _model_callables(seg, cfg, hill)
+        nw = int(np.searchsorted(seg.t, seg.t[0] + cfg.pass_window, side="right"))
+        nw = max(min(nw, seg.t.size), 2)
+
+        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202
+            if fast is None:
+                propagate, measure = _model_callables(sub, cfg, hill)
+                r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
+                return r.x_filt, r.x_smooth, r.P_smooth, r.residuals
+            out = _run_fast(fast, sub, cfg, hill, x0, P0)
+            if progress is not None:
+                for k in range(2 * sub.t.size - 1):
+                    progress(k)
+            return out
+
         try:
+            # re-linearisation passes over the first pass_window seconds, then the whole segment
+            win = seg if nw == seg.t.size else _slice(seg, 0, nw)
+            done, it, change = None, 0, math.inf
             for it in range(max(cfg.passes, 1)):
-                if fast is None:
-                    r = ekf_rts(x0, P0, seg.t.size, propagate, measure, progress=progress, t=seg.t)
-                    xf, xs, P, res = r.x_filt, r.x_smooth, r.P_smooth, r.residuals
-                else:
-                    xf, xs, P, res = _run_fast(fast, seg, cfg, hill, x0, P0)
-                    if progress is not None:
-                        for k in range(2 * seg.t.size - 1):
-                            progress(k)
+                done = run(win, x0)
                 q_old = x0[6:10] / np.linalg.norm(x0[6:10])
-                x0 = xs[0].copy()
+                x0 = done[1][0].copy()
                 x0[6:10] /= np.linalg.norm(x0[6:10])
                 change = float(np.degrees(rotations.quat_angle(q_old, x0[6:10])))
                 if it > 0 and change < cfg.pass_tol_deg:
                     break
+            if win is not seg:
+                done = run(seg, x0)
+                it += 1
+            xf, xs, P, res = done
         except CovarianceError as exc:
             raise InputError(f"the smoother failed: {exc}") from None
         xfs.append(xf)
