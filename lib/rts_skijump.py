@@ -181,6 +181,15 @@ class ProfileTable:
         return np.interp(x, self.x0 + self.step * np.arange(self.n), self.z)
 
 
+def profile_tables(hill: Hill) -> tuple[ProfileTable, ProfileTable]:
+    """In-run and landing :class:`ProfileTable` of a hill, built once per hill object."""
+    tabs = getattr(hill, "_rts_profile_tables", None)
+    if tabs is None:
+        tabs = (ProfileTable(hill, "inrun"), ProfileTable(hill, "landing"))
+        hill._rts_profile_tables = tabs  # type: ignore[attr-defined]
+    return tabs
+
+
 @dataclass
 class SkiJumpInputs:
     """Everything the smoother needs, per IMU step (NaN where a sensor did not sample)."""
@@ -472,8 +481,7 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
     has_vel = np.isfinite(inp.vel[:, 0]) & cfg.use_gnss_vel
     has_mag = np.isfinite(inp.mag[:, 0]) & cfg.use_mag
     use_hill = cfg.hill_constraints and hill is not None
-    ir = ProfileTable(hill, "inrun") if use_hill else None
-    la = ProfileTable(hill, "landing") if use_hill else None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
     H_pos = np.zeros((3, mdl.N))
     H_pos[:, 0:3] = np.eye(3)
     H_y = np.zeros((1, mdl.N))
@@ -561,8 +569,7 @@ def _fast_engine():  # noqa: ANN202
 
 def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, x0: np.ndarray, P0: np.ndarray):  # noqa: ANN001, ANN202
     use_hill = cfg.hill_constraints and hill is not None
-    ir = ProfileTable(hill, "inrun") if use_hill else None
-    la = ProfileTable(hill, "landing") if use_hill else None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
     empty = np.zeros(2)
     xf, xs, Pp, resid, fail, phase = fast.ski_ekf_rts(
         seg.t,
@@ -781,7 +788,7 @@ def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -
     if hill is None:
         out.update(c_v_ir=nan, c_h_ir=nan.copy(), c_v_la=nan.copy())
         return out
-    ir, la = ProfileTable(hill, "inrun"), ProfileTable(hill, "landing")
+    ir, la = profile_tables(hill)
     out["c_v_ir"] = np.where(inp.inrun, x[:, 2] - ir.many(x[:, 0]), np.nan)
     out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
     out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)

@@ -15,6 +15,8 @@ this one with to round-off): eqs 10-21 with the model of
   memory is one packed covariance and three state vectors per step;
 * the backward pass recomputes ``Phi_k`` and ``P_{k+1|k}`` from ``x_{k|k}`` and
   ``P_{k|k}`` instead of storing them;
+* sums may be re-associated (numba fast-math without the no-NaN flag) so that
+  the row loops vectorise;
 * positive definiteness is checked by finite positive variances after every
   update and prediction, and by the Cholesky factorisation of every
   ``P_{k+1|k}`` in the backward pass (the reference path factorises every ``P``).
@@ -31,6 +33,9 @@ from numba import njit
 
 N = 22
 NP = N * (N + 1) // 2
+#: fast-math flags: re-association (vectorised sums) but no "no-NaN/no-inf" assumption, so the
+#: finiteness checks stay.
+_FM = {"reassoc", "contract", "arcp", "nsz"}
 #: Residual blocks returned by :func:`ski_ekf_rts` (name, width).
 RESIDUALS = (("c_q", 1), ("gnss_pos", 3), ("gnss_vel", 3), ("mag", 3), ("c_v_ir", 1), ("c_h_ir", 1), ("c_v_la", 1))
 
@@ -213,16 +218,16 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
             Qd[j, i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _predict_cov(P, Phi, Qd, out):
     """``out = Phi P Phi^T + Qd`` for ``Phi = [[Phi[:, :10], Phi[:, 10:]], [0, I]]`` (10 x 22 top rows given)."""
-    T = np.empty((10, N))  # Phi_top P
+    T = np.zeros((10, N))  # Phi_top P, row-wise (contiguous inner loops)
     for i in range(10):
-        for j in range(N):
-            s = 0.0
-            for m in range(N):
-                s += Phi[i, m] * P[m, j]
-            T[i, j] = s
+        for m in range(N):
+            a = Phi[i, m]
+            if a != 0.0:
+                for j in range(N):
+                    T[i, j] += a * P[m, j]
     for i in range(10):
         for j in range(i, 10):
             s = Qd[i, j]
@@ -239,13 +244,19 @@ def _predict_cov(P, Phi, Qd, out):
             out[j, i] = P[i, j]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _scalar(x, P, xp, h, r0, var):
     """One scalar update: residual r0 - h (x - xp), expanded Joseph form. Returns False if not PD."""
     r = r0
     for i in range(N):
-        r -= h[i] * (x[i] - xp[i])
-    Ph = P @ h
+        if h[i] != 0.0:
+            r -= h[i] * (x[i] - xp[i])
+    Ph = np.zeros(N)
+    for m in range(N):
+        a = h[m]
+        if a != 0.0:
+            for i in range(N):
+                Ph[i] += P[m, i] * a  # P symmetric: row m, contiguous
     s0 = 0.0
     for i in range(N):
         s0 += h[i] * Ph[i]
@@ -283,7 +294,7 @@ def _ok(P):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag,
@@ -405,7 +416,6 @@ def ski_ekf_rts(
     Ct = np.empty((N, N))
     Dm = np.empty((N, N))
     E = np.empty((N, N))
-    dx = np.empty(N)
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
@@ -415,47 +425,59 @@ def ski_ekf_rts(
             if not (Pp[i, i] > 0.0):
                 return x_filt, x_s, Pbuf, resid, k + 1, 2
         L = np.linalg.cholesky(Pp)
-        # C^T = Pp^{-1} (Phi Pf) by two triangular solves; Phi Pf = [Phi_top Pf; Pf[10:]]
-        for c in range(N):
-            for i in range(N):
-                if i < 10:
-                    s = 0.0
-                    for m in range(N):
-                        s += Phi[i, m] * Pf[m, c]
-                else:
-                    s = Pf[i, c]
-                for j in range(i):
-                    s -= L[i, j] * Y[j, c]
-                Y[i, c] = s / L[i, i]
-        for c in range(N):
-            for i in range(N - 1, -1, -1):
-                s = Y[i, c]
-                for j in range(i + 1, N):
-                    s -= L[j, i] * Ct[j, c]
-                Ct[i, c] = s / L[i, i]
+        # C^T = Pp^{-1} (Phi Pf) by two triangular solves on whole rows; Phi Pf = [Phi_top Pf; Pf[10:]]
+        for i in range(N):
+            if i < 10:
+                for j in range(N):
+                    Y[i, j] = 0.0
+                for m in range(N):
+                    a = Phi[i, m]
+                    if a != 0.0:
+                        for j in range(N):
+                            Y[i, j] += a * Pf[m, j]
+            else:
+                for j in range(N):
+                    Y[i, j] = Pf[i, j]
+            for m in range(i):
+                a = L[i, m]
+                for j in range(N):
+                    Y[i, j] -= a * Y[m, j]
+            d = 1.0 / L[i, i]
+            for j in range(N):
+                Y[i, j] *= d
+        for i in range(N - 1, -1, -1):
+            for j in range(N):
+                Ct[i, j] = Y[i, j]
+            for m in range(i + 1, N):
+                a = L[m, i]
+                for j in range(N):
+                    Ct[i, j] -= a * Ct[m, j]
+            d = 1.0 / L[i, i]
+            for j in range(N):
+                Ct[i, j] *= d
         # x_s = x_f + C (x_s[k+1] - x_pred[k+1]);  P_s = P_f + C (P_s[k+1] - P_pred) C^T
         for i in range(N):
-            dx[i] = x_s[k + 1, i] - x_pred[k + 1, i]
-        for i in range(N):
-            s = x_filt[k, i]
-            for j in range(N):
-                s += Ct[j, i] * dx[j]
-            x_s[k, i] = s
+            x_s[k, i] = x_filt[k, i]
+        for m in range(N):
+            a = x_s[k + 1, m] - x_pred[k + 1, m]
+            for i in range(N):
+                x_s[k, i] += Ct[m, i] * a
         for i in range(N):
             for j in range(N):
                 Dm[i, j] = Ps[i, j] - Pp[i, j]
-        for i in range(N):  # E = C Dm
-            for j in range(N):
-                s = 0.0
-                for m in range(N):
-                    s += Ct[m, i] * Dm[m, j]
-                E[i, j] = s
-        for i in range(N):  # Ps = Pf + E C^T (symmetric: upper triangle, mirrored)
+                E[i, j] = 0.0
+        for m in range(N):  # E = C Dm = Ct^T Dm
+            for i in range(N):
+                a = Ct[m, i]
+                for j in range(N):
+                    E[i, j] += a * Dm[m, j]
+        for i in range(N):  # Ps = Pf + E C^T (upper triangle, mirrored)
             for j in range(i, N):
-                s = Pf[i, j]
-                for m in range(N):
-                    s += E[i, m] * Ct[m, j]
-                Ps[i, j] = s
+                Ps[i, j] = Pf[i, j]
+            for m in range(N):
+                a = E[i, m]
+                for j in range(i, N):
+                    Ps[i, j] += a * Ct[m, j]
         for i in range(N):
             for j in range(i + 1, N):
                 Ps[j, i] = Ps[i, j]
