@@ -14,7 +14,9 @@ this one with to round-off): eqs 10-21 with the model of
   and the smoothed covariance overwrites the filtered one in the backward pass:
   memory is one packed covariance and three state vectors per step;
 * the backward pass recomputes ``Phi_k`` and ``P_{k+1|k}`` from ``x_{k|k}`` and
-  ``P_{k|k}`` instead of storing them;
+  ``P_{k|k}`` instead of storing them, and uses that the parameters are constant
+  states without process noise (eq 22): the rows of the RTS gain that belong to
+  them are exactly ``[0 I]``, so only the 10 rows of the kinematic states are solved for;
 * sums may be re-associated (numba fast-math without the no-NaN flag) so that
   the row loops vectorise;
 * positive definiteness is checked by finite positive variances after every
@@ -416,6 +418,7 @@ def ski_ekf_rts(
     Ct = np.empty((N, N))
     Dm = np.empty((N, N))
     E = np.empty((N, N))
+    dx = np.empty(N)
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
@@ -425,61 +428,75 @@ def ski_ekf_rts(
             if not (Pp[i, i] > 0.0):
                 return x_filt, x_s, Pbuf, resid, k + 1, 2
         L = np.linalg.cholesky(Pp)
-        # C^T = Pp^{-1} (Phi Pf) by two triangular solves on whole rows; Phi Pf = [Phi_top Pf; Pf[10:]]
+        # The parameter rows of Phi are [0 I] and Qd has no parameter part, so Pp[:, 10:] =
+        # (Phi Pf)[:, 10:] and the gain is C = [[C_top], [0 I]]: only C_top = rows 0..9 of
+        # Pf Phi^T Pp^{-1} is solved for.  Ct10 = Pp^{-1} (Phi Pf)[:, :10] = C_top^T (22 x 10).
         for i in range(N):
             if i < 10:
-                for j in range(N):
+                for j in range(10):
                     Y[i, j] = 0.0
                 for m in range(N):
                     a = Phi[i, m]
                     if a != 0.0:
-                        for j in range(N):
+                        for j in range(10):
                             Y[i, j] += a * Pf[m, j]
             else:
-                for j in range(N):
+                for j in range(10):
                     Y[i, j] = Pf[i, j]
             for m in range(i):
                 a = L[i, m]
-                for j in range(N):
+                for j in range(10):
                     Y[i, j] -= a * Y[m, j]
             d = 1.0 / L[i, i]
-            for j in range(N):
+            for j in range(10):
                 Y[i, j] *= d
         for i in range(N - 1, -1, -1):
-            for j in range(N):
+            for j in range(10):
                 Ct[i, j] = Y[i, j]
             for m in range(i + 1, N):
                 a = L[m, i]
-                for j in range(N):
+                for j in range(10):
                     Ct[i, j] -= a * Ct[m, j]
             d = 1.0 / L[i, i]
-            for j in range(N):
+            for j in range(10):
                 Ct[i, j] *= d
-        # x_s = x_f + C (x_s[k+1] - x_pred[k+1]);  P_s = P_f + C (P_s[k+1] - P_pred) C^T
-        for i in range(N):
-            x_s[k, i] = x_filt[k, i]
+        # x_s = x_f + C (x_s[k+1] - x_pred[k+1])
         for m in range(N):
-            a = x_s[k + 1, m] - x_pred[k + 1, m]
-            for i in range(N):
-                x_s[k, i] += Ct[m, i] * a
+            dx[m] = x_s[k + 1, m] - x_pred[k + 1, m]
+        for i in range(10):
+            s = x_filt[k, i]
+            for m in range(N):
+                s += Ct[m, i] * dx[m]
+            x_s[k, i] = s
+        for i in range(10, N):
+            x_s[k, i] = x_filt[k, i] + dx[i]
+        # P_s = P_f + C Dm C^T with Dm = P_s[k+1] - P_pred:
+        #   top-left  C_top Dm C_top^T,  top-right  C_top Dm[:, 10:],  bottom-right  Dm[10:, 10:]
         for i in range(N):
             for j in range(N):
                 Dm[i, j] = Ps[i, j] - Pp[i, j]
+        for i in range(10):  # E_top = C_top Dm (10 x 22)
+            for j in range(N):
                 E[i, j] = 0.0
-        for m in range(N):  # E = C Dm = Ct^T Dm
-            for i in range(N):
+            for m in range(N):
                 a = Ct[m, i]
                 for j in range(N):
                     E[i, j] += a * Dm[m, j]
-        for i in range(N):  # Ps = Pf + E C^T (upper triangle, mirrored)
+        for i in range(10):
+            for j in range(i, 10):
+                s = Pf[i, j]
+                for m in range(N):
+                    s += E[i, m] * Ct[m, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
+            for j in range(10, N):
+                s = Pf[i, j] + E[i, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
+        for i in range(10, N):
             for j in range(i, N):
-                Ps[i, j] = Pf[i, j]
-            for m in range(N):
-                a = E[i, m]
-                for j in range(i, N):
-                    Ps[i, j] += a * Ct[m, j]
-        for i in range(N):
-            for j in range(i + 1, N):
-                Ps[j, i] = Ps[i, j]
+                s = Pf[i, j] + Dm[i, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
         _pack(Ps, Pbuf[k])
     return x_filt, x_s, Pbuf, resid, -1, 0
