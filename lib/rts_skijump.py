@@ -146,6 +146,9 @@ def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> 
             if not (isinstance(val, list) and len(val) == len(old) and all(isinstance(v, int | float) for v in val)):
                 raise InputError(f"config {path}: {key} must be a list of {len(old)} numbers")
             val = tuple(float(v) for v in val)
+        elif isinstance(old, int):
+            if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+                raise InputError(f"config {path}: {key} must be a positive integer")
         elif not isinstance(val, int | float) or isinstance(val, bool) or not math.isfinite(val) or val < 0:
             raise InputError(f"config {path}: {key} must be a non-negative number")
         values[key] = val
@@ -571,39 +574,43 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
     empty = np.zeros(2)
-    xf, xs, Pp, resid, fail, phase = fast.ski_ekf_rts(
-        seg.t,
-        seg.u,
-        seg.pos,
-        seg.vel,
-        seg.mag,
-        seg.inrun,
-        seg.landing,
-        x0,
-        P0,
-        float(seg.g0),
-        m_no(math.radians(seg.azimuth_deg)),
-        seg.m_o,
-        np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
-        np.asarray(cfg.r_gnss_pos, float) ** 2,
-        np.asarray(cfg.r_gnss_vel, float) ** 2,
-        float(cfg.r_mag**2),
-        float(cfg.r_c_q**2),
-        float(cfg.r_c_v_ir**2),
-        float(cfg.r_c_h_ir**2),
-        float(cfg.r_c_v_la**2),
-        ir.x0 if ir else 0.0,
-        ir.step if ir else 1.0,
-        ir.z if ir else empty,
-        ir.dz if ir else empty,
-        la.x0 if la else 0.0,
-        la.step if la else 1.0,
-        la.z if la else empty,
-        la.dz if la else empty,
-        use_hill,
-        bool(cfg.use_gnss_vel),
-        bool(cfg.use_mag),
-    )
+    try:
+        out = fast.ski_ekf_rts(
+            seg.t,
+            seg.u,
+            seg.pos,
+            seg.vel,
+            seg.mag,
+            seg.inrun,
+            seg.landing,
+            x0,
+            P0,
+            float(seg.g0),
+            m_no(math.radians(seg.azimuth_deg)),
+            seg.m_o,
+            np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+            np.asarray(cfg.r_gnss_pos, float) ** 2,
+            np.asarray(cfg.r_gnss_vel, float) ** 2,
+            float(cfg.r_mag**2),
+            float(cfg.r_c_q**2),
+            float(cfg.r_c_v_ir**2),
+            float(cfg.r_c_h_ir**2),
+            float(cfg.r_c_v_la**2),
+            ir.x0 if ir else 0.0,
+            ir.step if ir else 1.0,
+            ir.z if ir else empty,
+            ir.dz if ir else empty,
+            la.x0 if la else 0.0,
+            la.step if la else 1.0,
+            la.z if la else empty,
+            la.dz if la else empty,
+            use_hill,
+            bool(cfg.use_gnss_vel),
+            bool(cfg.use_mag),
+        )
+    except np.linalg.LinAlgError:
+        raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
+    xf, xs, Pp, resid, fail, phase = out
     if fail >= 0:
         what = ("update", "prediction", "backward pass")[phase]
         raise CovarianceError(f"covariance not positive definite at step {fail} (t = {seg.t[fail]:.3f} s) ({what})")

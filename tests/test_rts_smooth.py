@@ -243,3 +243,15 @@ def test_relinearisation_passes_recover_a_bad_start():
     assert np.degrees(_rms(e1["yaw"])) > 1.0
     assert np.degrees(_rms(e5["yaw"])) < 0.759  # Table 6
     assert 2 <= m["rts"]["passes"][0] <= SmootherConfig().passes + 1
+
+
+@pytest.mark.parametrize("engine", ["numba", "numpy"])
+def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
+    """A hard c_q on a quaternion given zero prior variance: the innovation variance is zero at step 0."""
+    from sportfusion.errors import InputError
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(p0_quat=0.0, r_c_q=0.0, passes=1)
+    with pytest.raises(InputError, match=r"step 0 \(t = 0\.000 s\)"):
+        rts_smooth_table(tab.slice(0, 200), meta, hill, cfg, engine=engine)
