@@ -114,6 +114,7 @@ class SmootherConfig:
     max_gap: float = 1.0
     passes: int = 5
     pass_tol_deg: float = 0.05
+    pass_window: float = 120.0
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -145,6 +146,9 @@ def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> 
             if not (isinstance(val, list) and len(val) == len(old) and all(isinstance(v, int | float) for v in val)):
                 raise InputError(f"config {path}: {key} must be a list of {len(old)} numbers")
             val = tuple(float(v) for v in val)
+        elif isinstance(old, int):
+            if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+                raise InputError(f"config {path}: {key} must be a positive integer")
         elif not isinstance(val, int | float) or isinstance(val, bool) or not math.isfinite(val) or val < 0:
             raise InputError(f"config {path}: {key} must be a non-negative number")
         values[key] = val
@@ -178,6 +182,15 @@ class ProfileTable:
     def many(self, x: np.ndarray) -> np.ndarray:
         """``z`` at many ``x`` [m]."""
         return np.interp(x, self.x0 + self.step * np.arange(self.n), self.z)
+
+
+def profile_tables(hill: Hill) -> tuple[ProfileTable, ProfileTable]:
+    """In-run and landing :class:`ProfileTable` of a hill, built once per hill object."""
+    tabs = getattr(hill, "_rts_profile_tables", None)
+    if tabs is None:
+        tabs = (ProfileTable(hill, "inrun"), ProfileTable(hill, "landing"))
+        hill._rts_profile_tables = tabs  # type: ignore[attr-defined]
+    return tabs
 
 
 @dataclass
@@ -471,8 +484,7 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
     has_vel = np.isfinite(inp.vel[:, 0]) & cfg.use_gnss_vel
     has_mag = np.isfinite(inp.mag[:, 0]) & cfg.use_mag
     use_hill = cfg.hill_constraints and hill is not None
-    ir = ProfileTable(hill, "inrun") if use_hill else None
-    la = ProfileTable(hill, "landing") if use_hill else None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
     H_pos = np.zeros((3, mdl.N))
     H_pos[:, 0:3] = np.eye(3)
     H_y = np.zeros((1, mdl.N))
@@ -560,42 +572,45 @@ def _fast_engine():  # noqa: ANN202
 
 def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, x0: np.ndarray, P0: np.ndarray):  # noqa: ANN001, ANN202
     use_hill = cfg.hill_constraints and hill is not None
-    ir = ProfileTable(hill, "inrun") if use_hill else None
-    la = ProfileTable(hill, "landing") if use_hill else None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
     empty = np.zeros(2)
-    xf, xs, Pp, resid, fail, phase = fast.ski_ekf_rts(
-        seg.t,
-        seg.u,
-        seg.pos,
-        seg.vel,
-        seg.mag,
-        seg.inrun,
-        seg.landing,
-        x0,
-        P0,
-        float(seg.g0),
-        m_no(math.radians(seg.azimuth_deg)),
-        seg.m_o,
-        np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
-        np.asarray(cfg.r_gnss_pos, float) ** 2,
-        np.asarray(cfg.r_gnss_vel, float) ** 2,
-        float(cfg.r_mag**2),
-        float(cfg.r_c_q**2),
-        float(cfg.r_c_v_ir**2),
-        float(cfg.r_c_h_ir**2),
-        float(cfg.r_c_v_la**2),
-        ir.x0 if ir else 0.0,
-        ir.step if ir else 1.0,
-        ir.z if ir else empty,
-        ir.dz if ir else empty,
-        la.x0 if la else 0.0,
-        la.step if la else 1.0,
-        la.z if la else empty,
-        la.dz if la else empty,
-        use_hill,
-        bool(cfg.use_gnss_vel),
-        bool(cfg.use_mag),
-    )
+    try:
+        out = fast.ski_ekf_rts(
+            seg.t,
+            seg.u,
+            seg.pos,
+            seg.vel,
+            seg.mag,
+            seg.inrun,
+            seg.landing,
+            x0,
+            P0,
+            float(seg.g0),
+            m_no(math.radians(seg.azimuth_deg)),
+            seg.m_o,
+            np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+            np.asarray(cfg.r_gnss_pos, float) ** 2,
+            np.asarray(cfg.r_gnss_vel, float) ** 2,
+            float(cfg.r_mag**2),
+            float(cfg.r_c_q**2),
+            float(cfg.r_c_v_ir**2),
+            float(cfg.r_c_h_ir**2),
+            float(cfg.r_c_v_la**2),
+            ir.x0 if ir else 0.0,
+            ir.step if ir else 1.0,
+            ir.z if ir else empty,
+            ir.dz if ir else empty,
+            la.x0 if la else 0.0,
+            la.step if la else 1.0,
+            la.z if la else empty,
+            la.dz if la else empty,
+            use_hill,
+            bool(cfg.use_gnss_vel),
+            bool(cfg.use_mag),
+        )
+    except np.linalg.LinAlgError:
+        raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
+    xf, xs, Pp, resid, fail, phase = out
     if fail >= 0:
         what = ("update", "prediction", "backward pass")[phase]
         raise CovarianceError(f"covariance not positive definite at step {fail} (t = {seg.t[fail]:.3f} s) ({what})")
@@ -627,10 +642,11 @@ def smooth_inputs(
     independent segments (each initialised from its own first samples); the
     results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
     the smoothed initial state (mean only, same ``P0``) until the initial attitude
-    changes by less than ``cfg.pass_tol_deg`` or ``passes`` runs are done: this
+    changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
     re-linearises the start, where an attitude error of tens of degrees (gyro
     biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
-    regime.
+    regime.  These passes cover the first ``cfg.pass_window`` seconds; one final
+    pass then covers the whole segment (a single pass when the window covers it).
     """
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
@@ -644,24 +660,36 @@ def smooth_inputs(
                 "expected GNSS during every recorded stretch"
             )
         x0, P0 = initial_state(seg, cfg)
-        if fast is None:
-            propagate, measure = _model_callables(seg, cfg, hill)
+        nw = int(np.searchsorted(seg.t, seg.t[0] + cfg.pass_window, side="right"))
+        nw = max(min(nw, seg.t.size), 2)
+
+        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202
+            if fast is None:
+                propagate, measure = _model_callables(sub, cfg, hill)
+                r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
+                return r.x_filt, r.x_smooth, r.P_smooth, r.residuals
+            out = _run_fast(fast, sub, cfg, hill, x0, P0)
+            if progress is not None:
+                for k in range(2 * sub.t.size - 1):
+                    progress(k)
+            return out
+
         try:
+            # re-linearisation passes over the first pass_window seconds, then the whole segment
+            win = seg if nw == seg.t.size else _slice(seg, 0, nw)
+            done, it, change = None, 0, math.inf
             for it in range(max(cfg.passes, 1)):
-                if fast is None:
-                    r = ekf_rts(x0, P0, seg.t.size, propagate, measure, progress=progress, t=seg.t)
-                    xf, xs, P, res = r.x_filt, r.x_smooth, r.P_smooth, r.residuals
-                else:
-                    xf, xs, P, res = _run_fast(fast, seg, cfg, hill, x0, P0)
-                    if progress is not None:
-                        for k in range(2 * seg.t.size - 1):
-                            progress(k)
+                done = run(win, x0)
                 q_old = x0[6:10] / np.linalg.norm(x0[6:10])
-                x0 = xs[0].copy()
+                x0 = done[1][0].copy()
                 x0[6:10] /= np.linalg.norm(x0[6:10])
                 change = float(np.degrees(rotations.quat_angle(q_old, x0[6:10])))
                 if it > 0 and change < cfg.pass_tol_deg:
                     break
+            if win is not seg:
+                done = run(seg, x0)
+                it += 1
+            xf, xs, P, res = done
         except CovarianceError as exc:
             raise InputError(f"the smoother failed: {exc}") from None
         xfs.append(xf)
@@ -771,7 +799,7 @@ def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -
     if hill is None:
         out.update(c_v_ir=nan, c_h_ir=nan.copy(), c_v_la=nan.copy())
         return out
-    ir, la = ProfileTable(hill, "inrun"), ProfileTable(hill, "landing")
+    ir, la = profile_tables(hill)
     out["c_v_ir"] = np.where(inp.inrun, x[:, 2] - ir.many(x[:, 0]), np.nan)
     out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
     out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)

@@ -14,7 +14,11 @@ this one with to round-off): eqs 10-21 with the model of
   and the smoothed covariance overwrites the filtered one in the backward pass:
   memory is one packed covariance and three state vectors per step;
 * the backward pass recomputes ``Phi_k`` and ``P_{k+1|k}`` from ``x_{k|k}`` and
-  ``P_{k|k}`` instead of storing them;
+  ``P_{k|k}`` instead of storing them, and uses that the parameters are constant
+  states without process noise (eq 22): the rows of the RTS gain that belong to
+  them are exactly ``[0 I]``, so only the 10 rows of the kinematic states are solved for;
+* sums may be re-associated (numba fast-math without the no-NaN flag) so that
+  the row loops vectorise;
 * positive definiteness is checked by finite positive variances after every
   update and prediction, and by the Cholesky factorisation of every
   ``P_{k+1|k}`` in the backward pass (the reference path factorises every ``P``).
@@ -31,6 +35,9 @@ from numba import njit
 
 N = 22
 NP = N * (N + 1) // 2
+#: fast-math flags: re-association (vectorised sums) but no "no-NaN/no-inf" assumption, so the
+#: finiteness checks stay.
+_FM = {"reassoc", "contract", "arcp", "nsz"}
 #: Residual blocks returned by :func:`ski_ekf_rts` (name, width).
 RESIDUALS = (("c_q", 1), ("gnss_pos", 3), ("gnss_vel", 3), ("mag", 3), ("c_v_ir", 1), ("c_h_ir", 1), ("c_v_la", 1))
 
@@ -134,8 +141,13 @@ def _rk4(x, u0, u1, dt, g0, mno, out, M):
 
 @njit(cache=True)
 def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
-    """Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T, Gamma = (dt I + A dt^2 / 2) F (as the reference)."""
-    A = np.zeros((N, N))
+    """Top rows of ``Phi = I + A dt + (A dt)^2 / 2`` and ``Qd = Gamma Q Gamma^T`` (eqs 7, 9, 13).
+
+    The parameter rows of ``A`` are zero (eq 22), so ``Phi = [[Phi1, Phi2], [0, I]]`` with
+    ``Phi[:10]`` (10, 22) written to ``Phi`` and ``Qd`` nonzero only in its top-left 10 x 10
+    block, written to ``Qd`` (10, 10).  Same arithmetic as the dense reference, without the zeros.
+    """
+    A = np.zeros((10, N))
     _mbo(x[6:10], M)
     _dmdq(x[6:10], D)
     v = x[3:6]
@@ -169,27 +181,38 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
     A[8, 6], A[8, 7], A[8, 9] = 0.5 * wy, -0.5 * wz, 0.5 * wx
     A[9, 6], A[9, 7], A[9, 8] = 0.5 * wz, 0.5 * wy, -0.5 * wx
     # -0.5 Xi(q)
-    xi = np.array([[-q1, -q2, -q3], [q0, -q3, q2], [q3, q0, -q1], [-q2, q1, q0]])
-    for i in range(4):
+    xi0 = (-q1, -q2, -q3)
+    xi1 = (q0, -q3, q2)
+    xi2 = (q3, q0, -q1)
+    xi3 = (-q2, q1, q0)
+    for j in range(3):
+        A[6, 10 + j] = -0.5 * xi0[j]
+        A[7, 10 + j] = -0.5 * xi1[j]
+        A[8, 10 + j] = -0.5 * xi2[j]
+        A[9, 10 + j] = -0.5 * xi3[j]
+    # F (rows 0..9; the rest is zero): gyro noise enters like the gyro bias, acc noise like -I
+    F = np.zeros((10, 6))
+    for i in range(3, 10):
         for j in range(3):
-            A[6 + i, 10 + j] = -0.5 * xi[i, j]
-    F = np.zeros((N, 6))
+            F[i, j] = A[i, 10 + j]
     for i in range(3):
-        for j in range(3):
-            F[3 + i, j] = A[3 + i, 10 + j]
         F[3 + i, 3 + i] = -1.0
-    for i in range(4):
-        for j in range(3):
-            F[6 + i, j] = A[6 + i, 10 + j]
-    Adt = A * dt
-    AA = Adt @ Adt
-    for i in range(N):
+    for i in range(10):
         for j in range(N):
-            Phi[i, j] = Adt[i, j] + 0.5 * AA[i, j]
+            a2 = 0.0
+            for m in range(10):
+                a2 += A[i, m] * A[m, j]
+            Phi[i, j] = A[i, j] * dt + 0.5 * dt * dt * a2
         Phi[i, i] += 1.0
-    G = dt * F + (0.5 * dt) * (Adt @ F)
-    for i in range(N):
-        for j in range(i, N):
+    G = np.empty((10, 6))
+    for i in range(10):
+        for j in range(6):
+            af = 0.0
+            for m in range(10):
+                af += A[i, m] * F[m, j]
+            G[i, j] = dt * F[i, j] + 0.5 * dt * dt * af
+    for i in range(10):
+        for j in range(i, 10):
             s = 0.0
             for m in range(6):
                 s += G[i, m] * qd[m] * G[j, m]
@@ -197,13 +220,45 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
             Qd[j, i] = s
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
+def _predict_cov(P, Phi, Qd, out):
+    """``out = Phi P Phi^T + Qd`` for ``Phi = [[Phi[:, :10], Phi[:, 10:]], [0, I]]`` (10 x 22 top rows given)."""
+    T = np.zeros((10, N))  # Phi_top P, row-wise (contiguous inner loops)
+    for i in range(10):
+        for m in range(N):
+            a = Phi[i, m]
+            if a != 0.0:
+                for j in range(N):
+                    T[i, j] += a * P[m, j]
+    for i in range(10):
+        for j in range(i, 10):
+            s = Qd[i, j]
+            for m in range(N):
+                s += T[i, m] * Phi[j, m]
+            out[i, j] = s
+            out[j, i] = s
+        for j in range(10, N):
+            out[i, j] = T[i, j]
+            out[j, i] = T[i, j]
+    for i in range(10, N):
+        for j in range(i, N):
+            out[i, j] = P[i, j]
+            out[j, i] = P[i, j]
+
+
+@njit(cache=True, fastmath=_FM)
 def _scalar(x, P, xp, h, r0, var):
     """One scalar update: residual r0 - h (x - xp), expanded Joseph form. Returns False if not PD."""
     r = r0
     for i in range(N):
-        r -= h[i] * (x[i] - xp[i])
-    Ph = P @ h
+        if h[i] != 0.0:
+            r -= h[i] * (x[i] - xp[i])
+    Ph = np.zeros(N)
+    for m in range(N):
+        a = h[m]
+        if a != 0.0:
+            for i in range(N):
+                Ph[i] += P[m, i] * a  # P symmetric: row m, contiguous
     s0 = 0.0
     for i in range(N):
         s0 += h[i] * Ph[i]
@@ -241,7 +296,7 @@ def _ok(P):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag,
@@ -263,8 +318,9 @@ def ski_ekf_rts(
     resid = np.full((n, 13), np.nan)
     M = np.empty((3, 3))
     D = np.empty((4, 3, 3))
-    Phi = np.empty((N, N))
-    Qd = np.empty((N, N))
+    Phi = np.empty((10, N))
+    Qd = np.empty((10, 10))
+    Pn = np.empty((N, N))
     h = np.zeros(N)
     x = x0.copy()
     P = P0.copy()
@@ -346,12 +402,8 @@ def ski_ekf_rts(
             dt = t[k + 1] - t[k]
             _rk4(x, u[k], u[k + 1], dt, g0, mno, xn, M)
             _phi_qd(x, u[k], dt, g0, mno, qd, Phi, Qd, M, D)
-            P = Phi @ P @ Phi.T + Qd
-            for i in range(N):
-                for j in range(i + 1, N):
-                    v = 0.5 * (P[i, j] + P[j, i])
-                    P[i, j] = v
-                    P[j, i] = v
+            _predict_cov(P, Phi, Qd, Pn)
+            P[:, :] = Pn
             if not _ok(P):
                 return x_filt, x_filt, Pbuf, resid, k + 1, 1
             x = xn.copy()
@@ -361,46 +413,90 @@ def ski_ekf_rts(
     Ps = np.empty((N, N))
     _unpack(Pbuf[n - 1], Ps)
     Pf = np.empty((N, N))
+    Pp = np.empty((N, N))
+    Y = np.empty((N, N))
+    Ct = np.empty((N, N))
+    Dm = np.empty((N, N))
+    E = np.empty((N, N))
+    dx = np.empty(N)
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
         _phi_qd(x_filt[k], u[k], dt, g0, mno, qd, Phi, Qd, M, D)
-        B = Phi @ Pf  # (P_f Phi^T)^T
-        Pp = B @ Phi.T + Qd
-        for i in range(N):
-            for j in range(i + 1, N):
-                v = 0.5 * (Pp[i, j] + Pp[j, i])
-                Pp[i, j] = v
-                Pp[j, i] = v
-        ok = True
+        _predict_cov(Pf, Phi, Qd, Pp)
         for i in range(N):
             if not (Pp[i, i] > 0.0):
-                ok = False
-        if not ok:
-            return x_filt, x_s, Pbuf, resid, k + 1, 2
+                return x_filt, x_s, Pbuf, resid, k + 1, 2
         L = np.linalg.cholesky(Pp)
-        # C^T = Pp^{-1} B by two triangular solves
-        Y = np.empty((N, N))
-        for c in range(N):
-            for i in range(N):
-                s = B[i, c]
-                for j in range(i):
-                    s -= L[i, j] * Y[j, c]
-                Y[i, c] = s / L[i, i]
-        Ct = np.empty((N, N))
-        for c in range(N):
-            for i in range(N - 1, -1, -1):
-                s = Y[i, c]
-                for j in range(i + 1, N):
-                    s -= L[j, i] * Ct[j, c]
-                Ct[i, c] = s / L[i, i]
-        C = Ct.T
-        x_s[k] = x_filt[k] + C @ (x_s[k + 1] - x_pred[k + 1])
-        Pn = Pf + C @ (Ps - Pp) @ Ct
+        # The parameter rows of Phi are [0 I] and Qd has no parameter part, so Pp[:, 10:] =
+        # (Phi Pf)[:, 10:] and the gain is C = [[C_top], [0 I]]: only C_top = rows 0..9 of
+        # Pf Phi^T Pp^{-1} is solved for.  Ct10 = Pp^{-1} (Phi Pf)[:, :10] = C_top^T (22 x 10).
         for i in range(N):
+            if i < 10:
+                for j in range(10):
+                    Y[i, j] = 0.0
+                for m in range(N):
+                    a = Phi[i, m]
+                    if a != 0.0:
+                        for j in range(10):
+                            Y[i, j] += a * Pf[m, j]
+            else:
+                for j in range(10):
+                    Y[i, j] = Pf[i, j]
+            for m in range(i):
+                a = L[i, m]
+                for j in range(10):
+                    Y[i, j] -= a * Y[m, j]
+            d = 1.0 / L[i, i]
+            for j in range(10):
+                Y[i, j] *= d
+        for i in range(N - 1, -1, -1):
+            for j in range(10):
+                Ct[i, j] = Y[i, j]
+            for m in range(i + 1, N):
+                a = L[m, i]
+                for j in range(10):
+                    Ct[i, j] -= a * Ct[m, j]
+            d = 1.0 / L[i, i]
+            for j in range(10):
+                Ct[i, j] *= d
+        # x_s = x_f + C (x_s[k+1] - x_pred[k+1])
+        for m in range(N):
+            dx[m] = x_s[k + 1, m] - x_pred[k + 1, m]
+        for i in range(10):
+            s = x_filt[k, i]
+            for m in range(N):
+                s += Ct[m, i] * dx[m]
+            x_s[k, i] = s
+        for i in range(10, N):
+            x_s[k, i] = x_filt[k, i] + dx[i]
+        # P_s = P_f + C Dm C^T with Dm = P_s[k+1] - P_pred:
+        #   top-left  C_top Dm C_top^T,  top-right  C_top Dm[:, 10:],  bottom-right  Dm[10:, 10:]
+        for i in range(N):
+            for j in range(N):
+                Dm[i, j] = Ps[i, j] - Pp[i, j]
+        for i in range(10):  # E_top = C_top Dm (10 x 22)
+            for j in range(N):
+                E[i, j] = 0.0
+            for m in range(N):
+                a = Ct[m, i]
+                for j in range(N):
+                    E[i, j] += a * Dm[m, j]
+        for i in range(10):
+            for j in range(i, 10):
+                s = Pf[i, j]
+                for m in range(N):
+                    s += E[i, m] * Ct[m, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
+            for j in range(10, N):
+                s = Pf[i, j] + E[i, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
+        for i in range(10, N):
             for j in range(i, N):
-                v = 0.5 * (Pn[i, j] + Pn[j, i])
-                Ps[i, j] = v
-                Ps[j, i] = v
+                s = Pf[i, j] + Dm[i, j]
+                Ps[i, j] = s
+                Ps[j, i] = s
         _pack(Ps, Pbuf[k])
     return x_filt, x_s, Pbuf, resid, -1, 0

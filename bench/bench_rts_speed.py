@@ -1,0 +1,208 @@
+"""rts-smooth speed on a 10-minute 100 Hz session (60,000 steps), beside filterpy.
+
+The session: ``simulate skijump`` (Oberstdorf HS106, seed 0) with a long rest
+after the jump, so that IMU, GNSS (10 Hz) and magnetometer run for 600 s.
+
+Timed, in this one process:
+
+* ours, compiled (numba) EKF + RTS loop of the ski model, one pass
+  (like-for-like with filterpy), and ``rts_smooth_table`` end to end with its
+  defaults (input preparation, re-linearisation passes, output columns);
+* ours, the numpy reference path (``ekf_rts`` with the model callables), on a
+  slice, scaled to 60,000 steps;
+* filterpy 1.4 ``ExtendedKalmanFilter`` (predict with our RK4 ``predict_x``, F
+  and Q from our discretisation; update with our stacked measurements and
+  Jacobians, Joseph form) + ``KalmanFilter.rts_smoother``, on a slice, scaled
+  to 60,000 steps (filterpy's smoother predicts the mean linearly, F x, where
+  ours uses the RK4 prediction of the forward pass).
+
+Compile time: the first call in a fresh numba cache (a subprocess with an
+empty ``NUMBA_CACHE_DIR``) and the cache load of the first call here.
+Memory: our loop stores per step three state vectors, the packed smoothed
+covariance and the innovations (``bytes/step`` below): it grows linearly.
+
+Run: ``python bench/bench_rts_speed.py [--quick] [--slice 3000] [--no-cold]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+TARGET_S = 2.0
+TARGET_RATIO = 20.0
+
+
+def build(rest_after: float):  # noqa: ANN201
+    from sportfusion.hillfile import load_hill
+    from sportfusion.rts_skijump import SmootherConfig, session_inputs
+    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+
+    hill = load_hill("oberstdorf_hs106")
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=0, rest_after=rest_after))
+    tt = sim.truth_meta["skijump"]["times"]
+    cfg = SmootherConfig(passes=1)
+    inp, _ = session_inputs(sim.session, sim.session_meta, hill, cfg, [tt["takeoff"]], [tt["touchdown"]])
+    return hill, sim, inp, cfg, tt
+
+
+def time_filterpy(inp, hill, cfg, n: int) -> float:  # noqa: ANN001
+    """filterpy EKF + RTS over the first n steps of the same model [s]."""
+    from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter
+
+    from sportfusion.models import skijump_ekf as mdl
+    from sportfusion.models.skijump_kinematics import m_no
+    from sportfusion.rts_skijump import ProfileTable, _slice, initial_state
+
+    seg = _slice(inp, 0, n)
+    x0, P0 = initial_state(seg, cfg)
+    mno = m_no(math.radians(seg.azimuth_deg))
+    qd = np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2
+    ir, la = ProfileTable(hill, "inrun"), ProfileTable(hill, "landing")
+    Rd = {
+        "pos": np.asarray(cfg.r_gnss_pos) ** 2,
+        "vel": np.asarray(cfg.r_gnss_vel) ** 2,
+        "mag": np.full(3, cfg.r_mag**2),
+    }
+
+    class EKF(ExtendedKalmanFilter):
+        k = 0
+
+        def predict_x(self, u=0):  # noqa: ANN001, ANN202
+            k = self.k
+            self.x = mdl.rk4_aug(self.x, seg.u[k], seg.u[k + 1], seg.t[k + 1] - seg.t[k], seg.g0, mno)
+
+    ekf = EKF(dim_x=mdl.N, dim_z=13)
+    ekf.x = x0.copy()
+    ekf.P = P0.copy()
+    Xs, Ps = np.zeros((n, mdl.N)), np.zeros((n, mdl.N, mdl.N))
+    Fs, Qs = np.zeros((n, mdl.N, mdl.N)), np.zeros((n, mdl.N, mdl.N))
+    t0 = time.perf_counter()
+    for k in range(n):
+        x = ekf.x
+        blocks = []  # (z, h(x), H, R diag)
+        blocks.append((np.zeros(1), np.array([mdl.c_q(x)]), mdl.C_q(x), np.array([cfg.r_c_q**2])))
+        if np.isfinite(seg.pos[k, 0]):
+            H = np.zeros((3, mdl.N))
+            H[:, 0:3] = np.eye(3)
+            blocks.append((seg.pos[k], x[0:3], H, Rd["pos"]))
+        if np.isfinite(seg.vel[k, 0]):
+            blocks.append((seg.vel[k], mdl.h_vel(x), mdl.H_vel(x), Rd["vel"]))
+        if np.isfinite(seg.mag[k, 0]):
+            blocks.append((seg.mag[k], mdl.h_mag(x, seg.m_o), mdl.H_mag(x, seg.m_o), Rd["mag"]))
+        if seg.inrun[k]:
+            z, dz = ir(x[0])
+            H = np.zeros((2, mdl.N))
+            H[0, 0], H[0, 2], H[1, 1] = -dz, 1.0, 1.0
+            blocks.append((np.zeros(2), np.array([x[2] - z, x[1]]), H, np.array([cfg.r_c_v_ir**2, cfg.r_c_h_ir**2])))
+        if seg.landing[k] > 0:
+            z, dz = la(x[0])
+            H = np.zeros((1, mdl.N))
+            H[0, 0], H[0, 2] = -dz, 1.0
+            blocks.append((np.zeros(1), np.array([x[2] - z]), H, np.array([cfg.r_c_v_la**2 / seg.landing[k]])))
+        zz = np.concatenate([b[0] for b in blocks])
+        hx = np.concatenate([b[1] for b in blocks])
+        HH = np.vstack([b[2] for b in blocks])
+        RR = np.diag(np.concatenate([b[3] for b in blocks]))
+        ekf.update(zz, lambda _x, H=HH: H, lambda _x, h=hx: h, R=RR)
+        Xs[k], Ps[k] = ekf.x, ekf.P
+        if k < n - 1:
+            ekf.k = k
+            Phi, Qd = mdl.discrete(
+                mdl.jac_a(ekf.x, seg.u[k], seg.g0, mno), mdl.jac_f(ekf.x), qd, seg.t[k + 1] - seg.t[k]
+            )
+            ekf.F, ekf.Q = Phi, Qd
+            Fs[k + 1], Qs[k + 1] = Phi, Qd
+            ekf.predict()
+    KalmanFilter(dim_x=mdl.N, dim_z=1).rts_smoother(Xs, Ps, Fs, Qs)
+    return time.perf_counter() - t0
+
+
+def cold_compile_seconds() -> float:
+    """Seconds of the first ski_ekf_rts call with an empty numba cache (a subprocess)."""
+    with tempfile.TemporaryDirectory() as d:
+        env = {**os.environ, "NUMBA_CACHE_DIR": d}
+        t0 = time.perf_counter()
+        prog = (
+            "import numpy as np, time\n"
+            "from sportfusion.kalman.skijump_fast import ski_ekf_rts, N\n"
+            "n=3; z=np.zeros; e=np.zeros(2)\n"
+            "t=np.arange(n)*0.01; u=z((n,6)); pos=np.full((n,3),np.nan); pos[0]=0\n"
+            "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
+            "9.81,np.eye(3),np.ones(3),np.ones(6),np.ones(3),np.ones(3),1.0,1.0,1.0,1.0,1.0,0.0,1.0,e,e,0.0,1.0,e,e,"
+            "False,True,True)\n"
+        )
+        subprocess.run([sys.executable, "-c", prog], env=env, check=True)
+        return time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="2-minute session, filterpy on 1000 steps")
+    ap.add_argument("--slice", type=int, default=3000, help="steps timed for filterpy and the numpy path")
+    ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile subprocess")
+    a = ap.parse_args()
+    rest = 98.0 if a.quick else 578.0
+    sl = 1000 if a.quick else a.slice
+    t0 = time.perf_counter()
+    hill, sim, inp, cfg, tt = build(rest)
+    n = inp.t.size
+    print(f"session: {n} IMU steps ({inp.t[-1] - inp.t[0]:.0f} s at 100 Hz), built in {time.perf_counter() - t0:.1f} s")
+    from sportfusion import rts_skijump as R
+
+    t0 = time.perf_counter()
+    from sportfusion.kalman import skijump_fast  # noqa: F401
+
+    small = R._slice(inp, 0, 50)
+    R.smooth_inputs(small, hill, cfg, engine="numba")
+    load = time.perf_counter() - t0
+    cold = None if a.no_cold else cold_compile_seconds()
+    runs, cpu = [], []
+    for _ in range(3):
+        t0, c0 = time.perf_counter(), time.process_time()
+        R.smooth_inputs(inp, hill, cfg, engine="numba")
+        runs.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    ours, ours_cpu = min(runs), min(cpu)
+    t0 = time.perf_counter()
+    R.rts_smooth_table(sim.session, sim.session_meta, hill, takeoff=[tt["takeoff"]], touchdown=[tt["touchdown"]])
+    table_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    R.smooth_inputs(R._slice(inp, 0, sl), hill, cfg, engine="numpy")
+    numpy_s = (time.perf_counter() - t0) * n / sl
+    try:
+        c0 = time.process_time()
+        fp = time_filterpy(inp, hill, cfg, sl) * n / sl
+        fp_cpu = (time.process_time() - c0) * n / sl
+    except ImportError:
+        fp = fp_cpu = float("nan")
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    per_step = (3 * 22 + 253 + 13) * 8
+    print(f"{'':44}{'time [s]':>10}{'us/step':>10}")
+    rows = [
+        ("ours, numba EKF+RTS, one pass (best of 3)", ours),
+        ("ours, rts_smooth_table end to end (defaults)", table_s),
+        (f"ours, numpy reference path (x{n / sl:.0f} of {sl})", numpy_s),
+        (f"filterpy EKF + rts_smoother (x{n / sl:.0f} of {sl})", fp),
+    ]
+    for label, s in rows:
+        print(f"{label:44}{s:10.2f}{s / n * 1e6:10.1f}")
+    print(f"numba: cache load + first call {load:.2f} s" + ("" if cold is None else f"; cold compile {cold:.1f} s"))
+    print(f"filterpy / ours (one pass): {fp / ours:.0f}x wall, {fp_cpu / ours_cpu:.0f}x CPU "
+          f"(target >= {TARGET_RATIO:.0f}x); ours {ours:.2f} s wall, {ours_cpu:.2f} s CPU time "
+          f"(target < {TARGET_S:.0f} s on one core; CPU time excludes waiting for a core)")  # fmt: skip
+    print(f"memory: {per_step} bytes/step stored ({per_step * n / 1e6:.0f} MB for {n} steps, linear); "
+          f"peak RSS of this process {peak:.0f} MB")  # fmt: skip
+    print("timings on a shared 2-core machine: noisy, compare ratios")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
