@@ -426,7 +426,12 @@ def gate_anchor_table(
             q = quat_multiply(qz, qn)
     g = normal_gravity(frame.lat, frame.h) if frame is not None else G_STANDARD
     dist = np.where(np.isfinite(cr["distance"]), cr["distance"], np.nan)
-    res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)
+    from sportfusion.kalman import CovarianceError
+
+    try:
+        res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)
+    except CovarianceError as exc:
+        raise InputError(f"the smoother failed: {exc}") from exc
     cols: dict[str, Any] = {}
     for i, a in enumerate("xyz"):
         cols[a] = np.interp(t, res.t, res.pos[:, i])
