@@ -9,7 +9,10 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO ?= demo-out
 
-.PHONY: all test test-fast lint format demo bench fixtures clean
+SESSIONS ?= sessions
+BATCH ?= batch-out
+
+.PHONY: all test test-fast lint format demo bench fixtures clean batch
 
 all: test
 
@@ -34,15 +37,34 @@ format: $(STAMP)
 
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/make_fixtures.py
+	$(BIN)/python fixtures/make_skijump.py
+	$(BIN)/python fixtures/make_sessions.py
 
+# every sport on the shipped fixtures (fixtures/<sport>/config.mk): results, evaluations, plots
 demo: $(STAMP)
-	mkdir -p $(DEMO)
-	$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/session.parquet
-	$(BIN)/inspect $(DEMO)/session.parquet
+	mkdir -p $(DEMO)/plots
+	$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/recording.parquet
+	$(BIN)/inspect $(DEMO)/recording.parquet | head -n 25
+	$(BIN)/plot hill --hill oberstdorf_hs106 -o $(DEMO)/plots/hill-oberstdorf_hs106.png
+	$(MAKE) --no-print-directory -f pipelines/batch.mk SESSIONS=fixtures OUT=$(DEMO)
+	for f in $(DEMO)/*/plots/*.png; do s=$${f#$(DEMO)/}; cp "$$f" "$(DEMO)/plots/$${s%%/*}-$$(basename $$f)"; done
+	for f in $(DEMO)/*/evaluation.txt $(DEMO)/*/table7.txt; do [ -f "$$f" ] || continue; \
+	  echo "== $$f"; head -n 6 "$$f"; done
+	@echo "plots: $(DEMO)/plots/"; ls $(DEMO)/plots
+
+# a sessions folder (one sub-folder per session with config.mk), N jobs: make batch SESSIONS=dir JOBS=2
+JOBS ?= 2
+batch: $(STAMP)
+	$(MAKE) --no-print-directory -j $(JOBS) -f pipelines/batch.mk SESSIONS=$(SESSIONS) OUT=$(BATCH)
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,bench]'
-	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python "$$f"; done
+	$(BIN)/python bench/report.py -o bench-report.md
 
 clean:
-	rm -rf $(VENV) $(DEMO) .pytest_cache .hypothesis *.egg-info
+	rm -rf $(VENV) $(DEMO) $(BATCH) .pytest_cache .hypothesis *.egg-info
+
+# skijump Table 7 end to end (5 simulated jumps: raw files -> rts-smooth -> jump-metrics vs video-jumplength)
+.PHONY: table7
+table7: $(STAMP)
+	$(BIN)/python bench/bench_table7.py

@@ -118,6 +118,7 @@ register("turn", STR, "", "turn direction at a gate (L or R)")
 # other table kinds
 register("route", STR, "", "route (track) identifier")
 register("hold", I32, "1", "hold index on the route")
+register("route_hold", I32, "1", "the hold's own index in its route file (bouldering dataset hold maps)")
 # climbing (pf-holds)
 register("hold_id", I32, "1", "hold number of the most likely particle cluster at a grip (-1: elsewhere)")
 register("cluster_prob", F64, "1", "probability of the most likely particle cluster (pf-holds)")
@@ -154,6 +155,24 @@ register("touchdown_frame", I32, "1", "first video frame (0-based) with both ski
 register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
 register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
 register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+for _a in "xyz":
+    register(
+        f"mag_pred_{_a}",
+        F64,
+        "uT",
+        f"magnetometer predicted by the smoother's estimate (skijump eq 50), body {_a} axis",
+    )
+# batch summary (python -m sportfusion.batch)
+register("session", STR, "", "session name (its folder in a sessions folder)")
+register("sport", STR, "", "sport of a session: skijump, skirace, gates, climbing")
+register("status", STR, "", "outcome of a session's pipeline: ok or failed")
+register("error", STR, "", "the error line of a failed session")
+register("duration", F64, "s", "time span of a session's result table")
+register("max_speed", F64, "m/s", "largest estimated speed in a session")
+register("jumps", I64, "1", "number of jumps found in a session")
+register("video_jump_length", F64, "m", "jump length read from the landing video (video-jumplength)")
+register("pos_rms", F64, "m", "3-D RMS position error against the truth")
+register("vel_rms", F64, "m/s", "3-D RMS velocity error against the truth")
 
 # alpine racing with magnet gates (gate-anchor)
 register("gate_anchor", BOOL, "", "the gate crossing was used as an anchor point (position update)")
@@ -163,6 +182,31 @@ register("turn_d_in", F64, "m", "distance from the turn-entrance switch position
 register("turn_d_out", F64, "m", "distance from the turn-exit switch position to the gate")
 register("turn_d_cross", F64, "m", "distance from the estimated position at the crossing to the gate")
 register("turn_length", F64, "m", "3-D path length of the turn, switch to switch")
+# run-vs-run comparison (compare-runs; skiracing-splines Figure 9), one row per run and common gate
+register("run", STR, "", "run label (the first run of a comparison is the reference)")
+register("crossing_t", F64, "s", "gate crossing time on the run's own clock (its t)")
+register("crossing_source", STR, "", "how the crossing was found: event (gate event row) or closest (closest approach)")
+register("acc_time", F64, "s", "time since the first common gate")
+register("section_time", F64, "s", "time from the previous common gate (gate-to-gate)")
+register("path_distance", F64, "m", "distance integrated along the trajectory since the first common gate")
+register("section_distance", F64, "m", "distance along the trajectory from the previous common gate")
+register("gate_speed", F64, "m/s", "instantaneous speed at the gate crossing")
+register("turn_entry_speed", F64, "m/s", "speed at the turn switch before the gate (start of the turn)")
+register("turn_exit_speed", F64, "m/s", "speed at the turn switch after the gate (end of the turn)")
+register("turn_length", F64, "m", "path length of the turn, from switch to switch")
+for _c in (
+    "acc_time",
+    "section_time",
+    "path_distance",
+    "section_distance",
+    "gate_speed",
+    "turn_entry_speed",
+    "turn_exit_speed",
+    "turn_length",
+):
+    register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
+register("speed_diff", F64, "m/s", "speed at the same place along the course: this run minus the reference")
+register("ref_jump_length", F64, "m", "reference jump length (e.g. read from a video, L_VR of skijump Table 7)")
 
 #: Table kinds and the columns each must have.
 REQUIRED: dict[str, tuple[str, ...]] = {
@@ -247,3 +291,27 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     """A numeric column as a float64 numpy array, nulls as NaN."""
     col = table.column(name).cast(F64).fill_null(np.nan)
     return np.asarray(col.to_numpy(), dtype=np.float64)
+
+
+# rts-smooth (skijump ERTS smoother): constraint residuals at the smoothed state, forward-only estimates
+register("c_q", F64, "1", "quaternion norm constraint |q| - 1 at the smoothed state (skijump eq 51)")
+register(
+    "c_v_ir", F64, "m", "in-run vertical constraint z - z_IR(x) at the smoothed state (eq 32), null where inactive"
+)
+register("c_h_ir", F64, "m", "in-run lateral constraint y at the smoothed state (eq 33), null where inactive")
+register(
+    "c_v_la",
+    F64,
+    "m",
+    "landing-area vertical constraint z - z_LA(x) at the smoothed state (eq 34), null where inactive",
+)
+for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
+    register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
+# jump-metrics (jumps table, one row per jump)
+register("jump", I32, "1", "jump number in the session (0-based)")
+register("t_takeoff", F64, "s", "take-off time on the session clock")
+register("t_touchdown", F64, "s", "touch-down time on the session clock")
+register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")
+register("flight_time", F64, "s", "touch-down minus take-off time")
+_xyz("touchdown", "m", "estimated sensor position at the touch-down, hill frame")
+register("max_height", F64, "m", "largest vertical height of the sensor above the landing profile in flight")

@@ -139,6 +139,7 @@ EXTRA: dict[str, list[str]] = {
     "plot errors": ["-o", _PNG, "--truth", str(_FIX / "skijump" / "truth.parquet")],
     "plot gates": ["-o", _PNG, "--gates", str(_FIX / "skijump" / "truth.parquet")],
     "plot holds": ["-o", _PNG, "--holds", str(_FIX / "skijump" / "truth.parquet")],
+    "plot compare": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract-compare.png")],
 }
 
 

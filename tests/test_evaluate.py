@@ -191,3 +191,29 @@ def test_gnss_baseline(truth):
     assert ev.stats["all"]["n"] == int(g.sum())  # the GNSS epochs, not every row
     for name, sigma in (("x", 3), ("y", 3), ("z", 5), ("vel_n", 0.1), ("vel_e", 0.1), ("vel_d", 0.3)):
         assert rms[name] == pytest.approx(sigma, rel=0.2)
+
+
+def test_gnss_without_vertical_velocity(truth):
+    # an NMEA log has no vel_d: the horizontal components are still evaluated, exactly
+    table, tmeta = truth
+    t = schema.floats(table, "t")[::10]
+    sel = pa.array(np.isin(schema.floats(table, "t"), t))
+    tr = table.filter(sel)
+    est = pa.table(
+        {
+            "t": t,
+            "gnss_x": schema.floats(tr, "true_x") + 1.5,
+            "gnss_y": schema.floats(tr, "true_y"),
+            "gnss_z": schema.floats(tr, "true_z"),
+            "vel_n": schema.floats(tr, "true_vel_n") - 0.04,
+            "vel_e": schema.floats(tr, "true_vel_e") + 0.03,
+        }
+    )
+    meta = sfmeta.new_meta("session", tmeta["time"]["epoch_utc"])
+    meta["frame"] = tmeta["frame"]
+    ev = evaluate(est, meta, table, tmeta, gnss=True)
+    assert "vel_d" not in ev.variables and {"vel_n", "vel_e"} <= set(ev.variables)
+    assert ev.stats["all"]["mean"]["vel_n"] == pytest.approx(-0.04, abs=1e-12)
+    assert ev.stats["all"]["rms"]["vel_e"] == pytest.approx(0.03, abs=1e-12)
+    assert ev.stats["all"]["max"]["x"] == pytest.approx(1.5, abs=1e-9)
+    assert ev.stats["all"]["n"] == t.size

@@ -57,6 +57,36 @@ def test_several_jumps_are_each_found(jump):
         assert abs(j.touchdown - (times["touchdown"] + k * span)) <= 0.03 + 1e-9
 
 
+def test_back_to_back_jumps_in_one_continuous_recording(jump):
+    # no time gap: the second jump's rest at the gate follows the first's stop sample by sample, so only
+    # the GNSS speed dropping below 10 m/s between them separates the jumps
+    session, _, _, tmeta = jump
+    t = schema.floats(session, "t")
+    span = float(t[-1] + (t[1] - t[0]))
+    both = pa.concat_tables([session, _shifted(session, span)])
+    assert np.allclose(np.diff(schema.floats(both, "t")), t[1] - t[0])
+    det = detect_jump_table(both)
+    assert len(det.jumps) == 2 and det.windows == 2, det.message()
+    times = tmeta["skijump"]["times"]
+    for k, j in enumerate(det.jumps):
+        assert abs(j.takeoff - (times["takeoff"] + k * span)) <= 0.03 + 1e-9
+        assert abs(j.touchdown - (times["touchdown"] + k * span)) <= 0.03 + 1e-9
+    out = set_events(both, jump_events(det))
+    assert [n for n in out.column("event").to_pylist() if n] == ["takeoff", "touchdown"] * 2
+
+
+def test_fast_run_without_a_jump_gets_no_events():
+    # a giant-slalom-like run: fast for 20 s, turns up to 8 m/s^2 and terrain rollers, but never airborne
+    from sportfusion.events import detect_jump_events
+    from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
+
+    sim = simulate_skirace(SkiRaceConfig(seed=3, jumps=0, duration=20.0))
+    out, summary, message = detect_jump_events(sim.session)
+    assert summary["speed_windows"] == 1 and summary["jumps"] == []
+    assert message.startswith("no jump found in 1 fast window") and "no flight between the peaks" in message
+    assert out.equals(sim.session)  # no event column invented
+
+
 def test_no_jump_gives_no_events(jump):
     session, _, _, tmeta = jump
     t = schema.floats(session, "t")

@@ -282,3 +282,112 @@ def test_my_three_sniffers_claim_only_their_own(tmp_path):
         for name in ("x.pos", "x.nmea", "x.gpx"):
             claims = {m.__name__.rsplit(".", 1)[-1] for m in (rtklib, nmea, gpx) if m.sniff(Path(name), head)}
             assert claims == {fmt}, (fmt, name, claims)
+
+
+# --- end to end: a carrier-phase solution with a float period through ingest -> gps2hill -> spline-smooth ---
+
+SITE = (46.4975, 9.8365, 2200.0)  # origin of the course frame: lat [deg], lon [deg], h [m]
+AZIMUTH = 160.0  # course-frame x axis, clockwise from north [deg]
+FLOAT = slice(80, 120)  # epochs 8.0-11.9 s are float
+
+
+def _course_truth(t):
+    """A smooth downhill track in the course frame [m]: 15 m/s along x, 4 m turns, 30 % slope."""
+    x = 15.0 * t
+    y = 4.0 * np.sin(2 * np.pi * t / 4.0)
+    z = 0.3 * x
+    return np.column_stack([x, y, z])
+
+
+def _e2e_pos(tmp_path, q_float: int, name: str) -> tuple[Path, np.ndarray, np.ndarray]:
+    """A 10 Hz llh .pos in GPST with velocity columns and comment lines; float epochs shifted 0.4 m."""
+    from sportfusion.frames import Frame
+
+    t = np.arange(0.0, 20.0, 0.1)
+    truth = _course_truth(t)
+    meas = truth.copy()
+    meas[FLOAT] += [0.3, -0.25, -0.2]  # the float solution's offset [m] in x, y, z
+    lat, lon, h = Frame(*SITE, AZIMUTH).to_geodetic(meas[:, 0], meas[:, 1], meas[:, 2])
+    q = np.ones(t.size, int)
+    q[FLOAT] = q_float
+    lines = [LLH_HEAD.format(height="ellipsoidal").rstrip("\n"), LLH_COLS.format(time="GPST") + VEL_COLS]
+    start = dt.datetime(2026, 2, 10, 10, 0, 18)
+    for i, ti in enumerate(t):
+        if i in (50, 100):
+            lines.append("% comment: reference station message gap")
+        when = start + dt.timedelta(seconds=round(ti, 1))
+        stamp = when.strftime("%Y/%m/%d %H:%M:%S.") + f"{when.microsecond // 1000:03d}"
+        # the same reported sigmas for fixed and float: only Q tells them apart
+        sd = (0.01, 0.01, 0.02, 0.0, 0.0, 0.0)
+        vel = (0.0,) * 9
+        lines.append(llh_line(stamp, lat[i], lon[i], h[i], int(q[i]), 12, sd, 1.0, 5.0, vel))
+    p = tmp_path / name
+    p.write_text("\n".join(lines) + "\n")
+    return p, truth, meas
+
+
+def _pipeline(pos: Path, tmp_path: Path, *smooth_args: str) -> tuple[np.ndarray, np.ndarray]:
+    """ingest | gps2hill | spline-smooth on the console scripts; (fix codes, smoothed x y z [m])."""
+    out = tmp_path / f"{pos.stem}{'-'.join(smooth_args)}.parquet"
+    cmd = (
+        f"'{BIN / 'ingest'}' --format rtklib '{pos}' | '{BIN / 'gps2hill'}' --origin {SITE[0]},{SITE[1]},{SITE[2]} "
+        f"--azimuth {AZIMUTH} | '{BIN / 'spline-smooth'}' {' '.join(smooth_args)} -o '{out}'"
+    )
+    proc = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    table, _ = sfio.read_table(out, kind="session")
+    fix = np.asarray(table.column("gnss_fix").to_pylist())
+    xyz = np.column_stack([table.column(c).to_numpy() for c in ("x", "y", "z")])
+    return fix, xyz
+
+
+def test_float_period_gets_lower_weight_end_to_end(tmp_path):
+    pos_float, truth, meas = _e2e_pos(tmp_path, 2, "float.pos")
+    pos_fixed, _, _ = _e2e_pos(tmp_path, 1, "fixed.pos")
+    fix, eq6 = _pipeline(pos_float, tmp_path)
+    assert (fix[FLOAT] == 5).all() and (np.delete(fix, np.r_[FLOAT]) == 4).all()
+    _, all_fixed = _pipeline(pos_fixed, tmp_path)  # the same positions, every epoch flagged fixed
+    _, uniform = _pipeline(pos_float, tmp_path, "--weighting", "uniform")
+    # gps2hill puts the positions back into the course frame (< 1 mm)
+    resid = {k: np.linalg.norm(v - meas, axis=1) for k, v in (("eq6", eq6), ("fixed", all_fixed), ("uni", uniform))}
+    # 1. weight: flagged float, the spline leans far less on those epochs than when the same data is flagged fixed
+    assert resid["eq6"][FLOAT].mean() > 2 * resid["fixed"][FLOAT].mean()  # measured: 3.0x
+    # 2. the transition epochs (w_trans = 1e-4) are let go: the spline stays on the fixed track at the
+    #    borders of the float period, where uniform weights smear the 0.45 m jump
+    err_eq6 = np.linalg.norm(eq6 - truth, axis=1)
+    err_uni = np.linalg.norm(uniform - truth, axis=1)
+    borders = np.r_[FLOAT.start, FLOAT.stop - 1]
+    assert err_eq6[borders].max() < 0.6 * err_uni[borders].min()  # measured: 0.12 m vs 0.29 m
+    # 3. away from the float period the fit is the fixed track within 3 cm
+    far = np.r_[0:70, 130:200]
+    assert err_eq6[far].max() < 0.03  # measured: 2.1 cm (smoothing bias of lambda 0.9 on 4 m turns)
+
+
+def test_xyz_utc_without_velocity(tmp_path):
+    lat, lon, h = 46.4975, 9.8365, 2200.0
+    head = "%  UTC                       x-ecef(m)      y-ecef(m)      z-ecef(m)   Q  ns   sdx(m)   sdy(m)   sdz(m)  sdxy(m)  sdyz(m)  sdzx(m) age(s)  ratio"
+    rows = []
+    qs = [1, 2, 5, 6]
+    for i, q in enumerate(qs):
+        x, y, z = pymap3d.geodetic2ecef(lat + 1e-5 * i, lon, h)
+        rows.append(
+            f"2026/02/10 10:00:0{i}.500 {x:14.4f} {y:14.4f} {z:14.4f} {q:3d} {10 + i:3d}"
+            + "".join(f" {v:8.4f}" for v in (0.02, 0.02, 0.02, 0.0, 0.0, 0.0))
+            + f" {0.5 * i:6.2f} {3.0 + i:6.1f}"
+        )
+    p = tmp_path / "xyz_utc.pos"
+    p.write_text("% (x/y/z-ecef=WGS84,Q=1:fix,2:float,...)\n" + head + "\n% a comment\n" + "\n".join(rows) + "\n")
+    rec = rtklib.read(p, Options())
+    assert rec.epoch_utc == calendar.timegm((2026, 2, 10, 10, 0, 0))  # UTC: no leap seconds taken off
+    assert rec.streams[0].t == pytest.approx([0.5, 1.5, 2.5, 3.5], abs=1e-9)
+    assert col(rec, "gnss_fix") == [4, 5, 1, 1]  # fix -> RTK fixed, float -> RTK float, single and ppp -> GPS
+    assert col(rec, "rtk_q") == qs
+    assert col(rec, "gnss_sats") == [10, 11, 12, 13]
+    # an isotropic 2 cm ECEF sigma stays 2 cm in north/east/up, with zero covariances
+    for name in ("gnss_sigma_n", "gnss_sigma_e", "gnss_sigma_v", "gnss_sigma_h"):
+        assert col(rec, name) == pytest.approx([0.02] * 4, abs=1e-6)
+    assert col(rec, "gnss_sdne") == pytest.approx([0.0] * 4, abs=1e-6)
+    assert col(rec, "gnss_age") == [0.0, 0.5, 1.0, 1.5] and col(rec, "gnss_ratio") == [3.0, 4.0, 5.0, 6.0]
+    assert col(rec, "lat") == pytest.approx(lat + 1e-5 * np.arange(4), abs=5e-9)
+    assert col(rec, "h") == pytest.approx([h] * 4, abs=1e-3)
+    assert "vel_n" not in rec.streams[0].columns

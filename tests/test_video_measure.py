@@ -22,7 +22,7 @@ from sportfusion.errors import InputError
 from sportfusion.hillfile import load_hill
 from sportfusion.tools import video_jumplength as vj
 from sportfusion.video.markers import make_markers, read_markers, write_markers
-from sportfusion.video.measure import fit_touchdown, half_max_edge, measure_video
+from sportfusion.video.measure import fit_touchdown, half_max_edge, measure_video, read_jump, read_skis
 from sportfusion.video.render import RenderOptions, parabolic_landing, render_landing
 
 
@@ -190,3 +190,13 @@ def test_half_max_edge_is_sub_pixel(edge: float):
     low = int(np.max(np.flatnonzero(diff[:, 0] > 10)))
     got = half_max_edge(diff, np.array([1]), np.array([low]), depth=6)
     assert got[0] == pytest.approx(edge, abs=0.15)
+
+
+def test_too_few_frames_of_the_landing(clip):
+    """A landing seen in only 6 frames (a narrow view at 25 /s): a clear message, not 'no touch-down'."""
+    path, _ = clip
+    markers = read_markers(path.with_name("landing.markers.csv"))
+    info, obs = read_skis(path, markers)
+    assert len(obs) >= 8
+    with pytest.raises(InputError, match="too few frames around the landing"):
+        read_jump(obs[:6], markers, info.fps)

@@ -59,3 +59,28 @@ def test_video_jumplength_reads_the_simulated_jump(simulated):
     _, meta = sfio.read_table(simulated / "truth.parquet", kind="truth")
     assert abs(row["touchdown_frame"] - meta["touchdown_frame"]) <= 1
     assert abs(row["jump_length"] - meta["jump_length"]) < 0.5
+
+
+def test_evaluate_joins_a_jumps_table_with_the_video_reading(simulated, tmp_path):
+    """Table 7 end to end on the video side: an estimate 0.7 m long against the video's reading."""
+    import numpy as np
+    import pyarrow as pa
+
+    from sportfusion import meta as sfmeta
+    from sportfusion import schema
+    from sportfusion.tools import evaluate
+
+    vr = tmp_path / "vr.parquet"
+    r = CliRunner().invoke(vj.main, [str(simulated / "landing.mp4"), "-o", str(vr), "-q"])
+    assert r.exit_code == 0, (r.stderr, r.exception)
+    _, meta = sfio.read_table(simulated / "truth.parquet", kind="truth")
+    tr = tmp_path / "tr.parquet"
+    est = pa.table({"jump_length": schema.to_arrow("jump_length", np.array([meta["jump_length"] + 0.7]))})
+    sfio.write_table(est, sfmeta.new_meta("jumps"), tr)
+    out = tmp_path / "s.parquet"
+    r = CliRunner().invoke(evaluate.main, [str(tr), "--video", str(vr), "-o", str(out), "-q"])
+    assert r.exit_code == 0, (r.stderr, r.exception)
+    row = sfio.read_table(out, kind="summary")[0].to_pylist()[0]
+    # the video reads the true length within 0.5 m (issue 9), so dL = 0.7 m +- 0.5 m
+    assert abs(row["jump_length_error"] - 0.7) < 0.5
+    assert row["ref_jump_length"] == pytest.approx(meta["jump_length"], abs=0.5)

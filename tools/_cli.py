@@ -84,6 +84,52 @@ def _quiet_broken_pipe() -> None:
         pass
 
 
+def _console_exit_code(exc: SystemExit) -> int:
+    if exc.code is None:
+        return 0
+    if isinstance(exc.code, int):
+        return exc.code
+    click.echo(str(exc.code), err=True)
+    return 1
+
+
+class CleanExit:
+    """Mixin for click commands and groups run as console scripts: exit with ``os._exit``.
+
+    pyarrow's C++ thread pools are sometimes still being torn down when the interpreter finalises,
+    and the process then dies with ``terminate called without an active exception`` (SIGABRT) after
+    its work was done and written (apache/arrow#34314). A console script therefore flushes its
+    streams and leaves through ``os._exit`` with click's exit code, skipping that teardown. Run any
+    other way (click's test runner, ``standalone_mode=False``, ``python -m``) the command behaves as
+    a plain click command.
+    """
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:
+        as_script = kwargs.get("standalone_mode", True) and os.path.basename(sys.argv[0]) == self.name  # type: ignore[attr-defined]
+        if not as_script:
+            return super().main(*args, **kwargs)  # type: ignore[misc]
+        try:
+            super().main(*args, **kwargs)  # type: ignore[misc]
+            code = 0
+        except SystemExit as exc:
+            code = _console_exit_code(exc)
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                if stream is sys.stdout:
+                    code = code or 1
+        os._exit(code)
+
+
+class Command(CleanExit, click.Command):
+    """A click command that exits cleanly as a console script (see :class:`CleanExit`)."""
+
+
+class Group(CleanExit, click.Group):
+    """A click group that exits cleanly as a console script (see :class:`CleanExit`)."""
+
+
 def tool(
     name: str,
     *,
@@ -142,7 +188,7 @@ def tool(
                 sys.exit(1)
 
         doc = (func.__doc__ or "").strip()
-        cmd = click.command(name=name, help=doc, epilog="\b\nExample:\n" + example.strip("\n"))(body)
+        cmd = click.command(name=name, cls=Command, help=doc, epilog="\b\nExample:\n" + example.strip("\n"))(body)
         cmd = click.version_option(
             __version__, "--version", prog_name=name, message="%(prog)s (sportfusion) %(version)s"
         )(cmd)

@@ -8,7 +8,18 @@ import click
 
 from sportfusion import io as sfio
 from sportfusion import meta as sfmeta
-from sportfusion.evaluate import check_estimate, evaluate, format_text, summary_meta, summary_table
+from sportfusion.evaluate import (
+    PAPER_READING_ACCURACY,
+    check_estimate,
+    compare_jump_lengths,
+    evaluate,
+    format_jump_lengths,
+    format_text,
+    jump_length_meta,
+    jump_length_table,
+    summary_meta,
+    summary_table,
+)
 from sportfusion.tools._cli import Tool, _is_tty, tool
 
 
@@ -20,7 +31,9 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
       | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > est.parquet
   evaluate est.parquet --truth truth.parquet --format text
   evaluate est.parquet --truth truth.parquet -o summary.parquet
-  gps2hill s.parquet --hill oberstdorf_hs106 | evaluate --truth truth.parquet --gnss --format text""",
+  gps2hill s.parquet --hill oberstdorf_hs106 | evaluate --truth truth.parquet --gnss --format text
+  video-jumplength landing1.mp4 landing2.mp4 > vr.parquet    (L_VR, one row per video)
+  evaluate tr.parquet --video vr.parquet --format text        (tr.parquet: jump-metrics output, L_TR)""",
     input_help="Estimate table (Parquet, e.g. rts-smooth output); default: standard input.",
 )
 @click.option(
@@ -28,7 +41,24 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
     "truth_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Truth table written by simulate (--truth FILE); required.",
+    help="Truth table written by simulate (--truth FILE); required unless --video is given.",
+)
+@click.option(
+    "--video",
+    "video_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Compare jump lengths instead (skijump Table 7): a jumps table from video-jumplength (L_VR, the "
+    "reference); the input is then a jumps table with jump_length (L_TR, e.g. jump-metrics output), paired by "
+    "a 'jump' number column when both have one, else row by row. Prints dL = L_TR - L_VR per jump, its RMS and "
+    "the RMS upper bound with --reading-accuracy.",
+)
+@click.option(
+    "--reading-accuracy",
+    type=click.FloatRange(min=0.0),
+    default=PAPER_READING_ACCURACY,
+    show_default=True,
+    help="Worst-case error of the --video reading, for the RMS upper bound [m] (paper, Appendix B: 0.5 m).",
 )
 @click.option(
     "--format",
@@ -57,7 +87,16 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
     default=None,
     help="Output file (summary table or text), written atomically; default: standard output.",
 )
-def main(tool: Tool, truth_path: str | None, fmt: str, gnss: bool, max_event_dt: float, output: str | None) -> None:
+def main(
+    tool: Tool,
+    truth_path: str | None,
+    video_path: str | None,
+    reading_accuracy: float,
+    fmt: str,
+    gnss: bool,
+    max_event_dt: float,
+    output: str | None,
+) -> None:
     """Compare an estimate (x y z and vx vy vz in the hill frame, q0..q3 or
     roll pitch yaw, events) with the truth of a simulated session: RMS, mean and
     maximum absolute error of position (hill frame), velocity (NED), Euler
@@ -65,9 +104,17 @@ def main(tool: Tool, truth_path: str | None, fmt: str, gnss: bool, max_event_dt:
     the take-off, flight, out-run from the touch-down), like Table 6 of the
     ski-jump paper; take-off/touch-down timing errors and the jump-length error
     when both sides have a jump length. Writes a summary table (angles in rad)
-    or, with --format text, a readable table (angles in deg)."""
+    or, with --format text, a readable table (angles in deg). With --video:
+    the jump lengths of a jumps table (L_TR) against a video reading (L_VR),
+    Table 7 of the ski-jump paper: per-jump error dL = L_TR - L_VR [m], RMS
+    sqrt(mean(dL^2)) and the upper bound sqrt(mean((|dL| + 0.5 m)^2))."""
     if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
         raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
+    if video_path is not None:
+        if truth_path is not None or gnss:
+            raise click.UsageError("--video compares jump lengths; it does not go with --truth or --gnss")
+        _jump_lengths(tool, video_path, reading_accuracy, fmt, output)
+        return
     est, est_meta = tool.read(kind="session")
     check_estimate(est, gnss)
     if truth_path is None:
@@ -87,3 +134,22 @@ def main(tool: Tool, truth_path: str | None, fmt: str, gnss: bool, max_event_dt:
     meta["provenance"] = list(est_meta.get("provenance", []))
     tool.output = output
     tool.write(summary_table(ev), meta)
+
+
+def _jump_lengths(tool: Tool, video_path: str, reading_accuracy: float, fmt: str, output: str | None) -> None:
+    """``evaluate --video``: the jumps table on the input against the video reading (Table 7)."""
+    est, est_meta = tool.read(kind="jumps")
+    ref, _ = sfio.read_table(video_path, kind="jumps", what=f"video jumps file {video_path}")
+    cmp = compare_jump_lengths(est, ref, reading_accuracy)
+    if fmt == "text":
+        title = f"jump length: estimate L_TR vs video L_VR ({video_path}); dL = L_TR - L_VR (skijump Table 7)"
+        sfio.write_bytes(format_jump_lengths(cmp, title).encode(), output)
+        return
+    meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
+    for key in ("frame", "hill"):
+        if key in est_meta:
+            meta[key] = est_meta[key]
+    meta["evaluation"] = jump_length_meta(cmp)
+    meta["provenance"] = list(est_meta.get("provenance", []))
+    tool.output = output
+    tool.write(jump_length_table(cmp), meta)

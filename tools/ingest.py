@@ -6,7 +6,10 @@ from pathlib import Path
 
 import click
 
+from sportfusion.errors import InputError
 from sportfusion.ingest import FORMATS, Options, combine, read_recording
+from sportfusion.io import write_table
+from sportfusion.meta import add_provenance
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_pairs
 
@@ -18,6 +21,7 @@ from sportfusion.tools._options import parse_pairs
   ingest phyphox_export.zip > session.parquet
   ingest phyphox_export.zip gps_logger.nmea -o session.parquet
   ingest track.gpx --geoid-offset 47.9 > gnss.parquet
+  ingest dataset/P01/V01/trials/T1 --hand lefthand --holds-out holds.parquet > trial.parquet
   ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet""",
 )
 @click.argument("raw", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
@@ -76,6 +80,25 @@ from sportfusion.tools._options import parse_pairs
     show_default=True,
     help="Bouldering dataset trial: which hand's IMU file.",
 )
+@click.option(
+    "--hold-map",
+    type=click.Path(exists=True, file_okay=False),
+    default=None,
+    help="Bouldering dataset: hold map folder (routes/, start_handles.json); default: searched near the trial.",
+)
+@click.option(
+    "--map-up",
+    type=click.Choice(["x", "y", "z", "-x", "-y", "-z"]),
+    default="z",
+    show_default=True,
+    help="Bouldering dataset: the hold map's up axis (map coordinates in m).",
+)
+@click.option(
+    "--holds-out",
+    type=click.Path(dir_okay=False, writable=True),
+    default=None,
+    help="Bouldering dataset: write the hold map (kind holds, positions [m]) to this Parquet file for pf-holds.",
+)
 def main(
     tool: Tool,
     raw: tuple[Path, ...],
@@ -88,6 +111,9 @@ def main(
     time_unit: str,
     units: tuple[str, ...],
     hand: str,
+    hold_map: str | None,
+    map_up: str,
+    holds_out: str | None,
 ) -> None:
     """Read raw recordings (phyphox CSV export as ZIP or folder, NMEA 0183, GPX 1.1,
     RTKLIB .pos, Xsens MT Manager text export, a bouldering-dataset trial folder,
@@ -102,6 +128,8 @@ def main(
         time_unit=time_unit,
         units=parse_pairs(units, "--units"),
         hand=hand,
+        hold_map=hold_map,
+        map_up=map_up,
     )
     offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
     if mapping and fmt is None:
@@ -110,6 +138,13 @@ def main(
     table, meta, warnings = combine(recordings, offs)
     for w in warnings:
         tool.warn(w)
+    holds = [r.tables["holds"] for r in recordings if "holds" in r.tables]
+    if holds_out is not None:
+        if not holds:
+            raise InputError("--holds-out: no input came with a hold map; expected a bouldering trial (see --hold-map)")
+        write_table(holds[0][0], add_provenance(holds[0][1], tool.name, tool.params), holds_out)
+    elif holds:
+        tool.info("a hold map was found; write it for pf-holds with --holds-out FILE")
     tool.info(f"{table.num_rows} rows from {len(raw)} input(s)")
     tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw]})
 

@@ -9,7 +9,7 @@ import click
 from sportfusion import __version__
 from sportfusion import io as sfio
 from sportfusion.errors import InputError
-from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._cli import Group, Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option
 
 
@@ -91,7 +91,44 @@ def track_cmd(
     tool.info(f"wrote {output}")
 
 
+@tool(
+    "plot compare",
+    writes_table=False,
+    example="""
+  compare-runs anna.parquet --run berta.parquet | plot compare -o compare.png
+  compare-runs anna.parquet --run berta.parquet --profile speed.parquet -o compare.parquet
+  plot compare compare.parquet --profile speed.parquet -o compare.svg --title "Downhill, St. Moritz" """,
+    input_help="Summary table written by compare-runs; default: standard input.",
+)
+@_image_options
+@click.option(
+    "--profile",
+    "profile_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Speed profile written by compare-runs --profile: adds the speed difference [m/s] along the course.",
+)
+def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_path: str | None) -> None:
+    """Draw the run comparison of Figure 9 of the ski racing splines paper
+    from a compare-runs summary: one row per gate, four columns: accumulated
+    time difference [s], gate-to-gate time difference [s], difference of the
+    distance along the path [m] and of the speed at the gate [m/s], each run
+    minus the reference."""
+    from sportfusion.plots import compare_figure, figure_format, render
+
+    table, meta = tool.read(kind=None)
+    profile = None
+    if profile_path is not None:
+        profile, _ = sfio.read_table(profile_path, kind="summary", what=f"profile {profile_path}")
+    fig = compare_figure(table, meta, title or "", profile=profile)
+    if meta.get("kind") != "summary":
+        raise InputError(f"the input is a '{meta.get('kind')}' table; expected the summary written by compare-runs")
+    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.info(f"wrote {output}")
+
+
 @click.group(
+    cls=Group,
     name="plot",
     epilog="\b\nExample:\n  plot hill --hill oberstdorf_hs106 -o hill.png\n"
     "  ingest run.zip | gps2hill --hill oberstdorf_hs106 | plot track -o track.svg",
@@ -110,6 +147,7 @@ main.add_command(hill_cmd, name="hill")
 main.add_command(track_cmd, name="track")
 for _name, _cmd in __import__("sportfusion.tools.plot_figures", fromlist=["COMMANDS"]).COMMANDS.items():
     main.add_command(_cmd, name=_name)
+main.add_command(compare_cmd, name="compare")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -9,9 +9,11 @@ from __future__ import annotations
 import click
 
 from sportfusion import __version__
+from sportfusion.tools._cli import Group
 
 
 @click.group(
+    cls=Group,
     name="simulate",
     epilog="\b\nExample:\n  simulate <sport> --seed 1 --truth truth.parquet > session.parquet",
 )

@@ -18,7 +18,7 @@ import pyarrow as pa
 from sportfusion import __version__, schema
 from sportfusion import meta as sfmeta
 from sportfusion.errors import InputError
-from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._cli import Group, Tool, tool
 from sportfusion.video.annotate import grid_image, write_debug
 from sportfusion.video.markers import markers_path_for, read_markers
 from sportfusion.video.measure import measure_video
@@ -35,7 +35,7 @@ COLUMNS = (
 )
 
 
-class _DefaultMeasure(click.Group):
+class _DefaultMeasure(Group):
     """A group whose first argument, when not a subcommand or option of the group, starts ``measure``."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:

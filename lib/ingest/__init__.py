@@ -53,6 +53,10 @@ class Options:
         Bouldering dataset: which hand's IMU file to read (``lefthand``/``righthand``).
     date : str or None
         NMEA: UTC date ``YYYY-MM-DD`` of a log without RMC/ZDA dates (GGA only).
+    hold_map : str or None
+        Bouldering dataset: folder of the hold map (``routes/``, ``start_handles.json``); default: searched.
+    map_up : str
+        Bouldering dataset: the hold map's up axis (``x y z -x -y -z``).
     """
 
     geoid_offset: float | None = None
@@ -62,11 +66,19 @@ class Options:
     units: dict[str, str] = field(default_factory=dict)
     hand: str = "lefthand"
     date: str | None = None
+    hold_map: str | None = None
+    map_up: str = "z"
 
 
 @dataclass
 class Recording:
-    """One parsed input: its streams, its time origin and what it says about itself."""
+    """One parsed input: its streams, its time origin and what it says about itself.
+
+    ``meta`` goes into the session's ``sources`` entry, except ``meta["units"]``
+    (-> the session's ``units``) and ``meta["session"]`` (keys merged into the
+    session metadata, e.g. ``climbing``).  ``tables`` holds side tables a
+    reader found (name -> (table, metadata)), e.g. a bouldering hold map.
+    """
 
     source: str
     format: str
@@ -74,6 +86,7 @@ class Recording:
     epoch_utc: float | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    tables: dict[str, tuple[pa.Table, dict[str, Any]]] = field(default_factory=dict)
 
 
 def _module(fmt: str) -> Any:
@@ -138,6 +151,7 @@ def combine(
     streams: list[Stream] = []
     sources = []
     units: dict[str, str] = {}
+    session: dict[str, Any] = {}
     for rec in recordings:
         key = next((k for k in (rec.source, Path(rec.source).name) if k in offsets), None)
         off = offsets.pop(key, 0.0) if key else 0.0
@@ -151,6 +165,7 @@ def combine(
             streams.append(Stream(f"{Path(rec.source).name}:{s.name}", s.t + shift, s.columns))
         extra = dict(rec.meta)
         units.update(extra.pop("units", {}))
+        session.update(extra.pop("session", {}))
         sources.append({"file": Path(rec.source).name, "format": rec.format, "shift_s": shift, **extra})
     if offsets:
         raise InputError(f"--offset names {', '.join(offsets)}, which is not one of the inputs")
@@ -158,6 +173,7 @@ def combine(
     for name, n in report.duplicates.items():
         warnings.append(f"{name}: {n} repeated identical sample(s) folded into one row each")
     meta = sfmeta.new_meta("session", origin)
+    meta.update({k: v for k, v in session.items() if k not in meta})
     for src in sources:
         prefix = src["file"] + ":"
         src["samples"] = {k[len(prefix) :]: v for k, v in report.rows.items() if k.startswith(prefix)}

@@ -196,3 +196,84 @@ def write_nmea(
             )
         )
     Path(path).write_text("\r\n".join(lines) + "\r\n")
+
+
+def write_session_raw(
+    table: object, epoch_utc: float, folder: str | Path, geoid_sep: float = 47.0, device: str = "sportfusion simulated"
+) -> list[Path]:
+    """Write a simulated session table as the raw files of its devices.
+
+    The IMU channels present (``acc_*`` [m/s^2], ``gyr_*`` [rad/s], ``mag_*`` [uT]) go to a phyphox
+    export ``phyphox.zip`` at their own sample times; the GNSS rows (``lat lon h`` [deg, deg, m
+    ellipsoidal], ``vel_n vel_e`` [m/s], ``gnss_fix``, ``gnss_sigma_h/v`` [m]) to an NMEA log
+    ``gnss.nmea`` (GGA with the fix-quality code, RMC, GST with the sigmas). ``ingest`` of the two
+    files gives the session back on the same clock (NMEA times are rounded to 0.01 s).
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        A session table (``t`` [s] since ``epoch_utc``).
+    epoch_utc : float
+        Unix time [s] of ``t = 0``.
+    folder : path
+        Output folder (created).
+    geoid_sep : float
+        Geoid separation written into GGA [m]; the NMEA altitude is ``h - geoid_sep``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    import pyarrow as pa
+
+    assert isinstance(table, pa.Table)
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    t = table.column("t").to_numpy()
+
+    def cols(names: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
+        if not all(n in table.column_names for n in names):
+            return None
+        v = np.column_stack([np.asarray(table.column(n).to_numpy(zero_copy_only=False), float) for n in names])
+        ok = np.all(np.isfinite(v), axis=1)
+        return (t[ok], v[ok]) if ok.any() else None
+
+    imu = {}
+    for name, prefix in (("Accelerometer", "acc"), ("Gyroscope", "gyr"), ("Magnetometer", "mag")):
+        got = cols([f"{prefix}_{a}" for a in "xyz"])
+        if got is not None:
+            imu[name] = got
+    written = []
+    if imu:
+        write_phyphox_zip(out / "phyphox.zip", epoch_utc, imu, device=device)
+        written.append(out / "phyphox.zip")
+    pos = cols(["lat", "lon", "h"])
+    if pos is not None:
+        sel = np.isin(t, pos[0])
+
+        def g(name: str, default: float) -> np.ndarray:
+            if name not in table.column_names:
+                return np.full(int(sel.sum()), default)
+            v = np.asarray(table.column(name).to_numpy(zero_copy_only=False), float)[sel]
+            return np.where(np.isfinite(v), v, default)
+
+        vn, ve = g("vel_n", 0.0), g("vel_e", 0.0)
+        sh, sv = g("gnss_sigma_h", 1.0), g("gnss_sigma_v", 1.5)
+        write_nmea(
+            out / "gnss.nmea",
+            epoch_utc,
+            pos[0],
+            pos[1][:, 0],
+            pos[1][:, 1],
+            pos[1][:, 2] - geoid_sep,
+            geoid_sep,
+            np.hypot(vn, ve),
+            np.degrees(np.arctan2(ve, vn)) % 360.0,
+            sh,
+            sh,
+            sv,
+            fix=g("gnss_fix", 1).astype(int),
+        )
+        written.append(out / "gnss.nmea")
+    return written

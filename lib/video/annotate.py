@@ -24,9 +24,22 @@ FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
 def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float, colour: tuple[int, int, int]) -> None:
+    """Text with a black outline (the glyphs' mask dilated: a thicker putText would be wider and misalign)."""
     th = max(1, int(round(2 * scale)))
-    cv2.putText(img, text, org, FONT, scale, (0, 0, 0), th + 2, cv2.LINE_AA)
-    cv2.putText(img, text, org, FONT, scale, colour, th, cv2.LINE_AA)
+    (w, h), base = cv2.getTextSize(text, FONT, scale, th)
+    x, y = org
+    pad = 3
+    x0, y0 = max(0, x - pad), max(0, y - h - pad)
+    x1, y1 = min(img.shape[1], x + w + pad), min(img.shape[0], y + base + pad)
+    if x1 <= x0 or y1 <= y0:
+        return
+    mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.putText(mask, text, (x - x0, y - y0), FONT, scale, 255, th, cv2.LINE_AA)
+    edge = cv2.dilate(mask, np.ones((3, 3), np.uint8)).astype(np.float32)[..., None] / 255.0
+    glyph = mask.astype(np.float32)[..., None] / 255.0
+    roi = img[y0:y1, x0:x1].astype(np.float32) * (1.0 - edge)
+    roi = roi * (1.0 - glyph) + np.asarray(colour, np.float32) * glyph
+    img[y0:y1, x0:x1] = np.clip(roi, 0, 255).astype(np.uint8)
 
 
 def _pt(p: np.ndarray) -> tuple[int, int]:
@@ -106,6 +119,10 @@ def series_plot(reading: JumpReading, width: int = 900, height: int = 420) -> np
         u = int(px(np.array([k]), np.array([yl]))[0, 0])
         cv2.line(img, (u, height - m), (u, height - m + 5), (0, 0, 0), 1)
         cv2.putText(img, str(k), (u - 8, height - m + 20), FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    for yv in np.linspace(yl, yh, 5):
+        v = int(px(np.array([lo]), np.array([yv]))[0, 1])
+        cv2.line(img, (m - 5, v), (m, v), (0, 0, 0), 1)
+        cv2.putText(img, f"{yv:.2f}", (2, v + 4), FONT, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
     fine = np.linspace(float(f.min()), float(f.max()), 400)
     for p in px(f, Y):
         cv2.circle(img, (int(p[0]), int(p[1])), 3, (200, 80, 0), -1, cv2.LINE_AA)

@@ -752,7 +752,12 @@ def read_jump(obs: list[SkiObs], markers: Markers, fps: float, half_window: floa
         if abs(s_td - sc) <= 0.65 * half_window and np.isfinite(fit.z):
             found.append((fit.z, s_td))
     if not found:
-        raise last_error or InputError("no touch-down found; expected the skis to land on the snow in view")
+        if last_error is None:  # no stretch of the track had 8 frames to fit
+            raise InputError(
+                f"the skis were measured in too few frames around the landing ({len(obs)} in all); expected the "
+                "landing in view for at least 8 frames (a wider view or a higher frame rate)"
+            )
+        raise last_error
     s_td = max(found)[1]
     smap = fit_slope_map(markers, s_td)
     sel = np.abs(s_whole - s_td) <= half_window

@@ -103,7 +103,8 @@ class RenderOptions:
     person, flags : bool
         A person walking / flags waving behind the far side of the slope.
     marker_noise : float
-        Reading error added to the marker pixels written for the user [px] (1-sigma).
+        Reading error added to the marker pixels written for the user [px] (1-sigma); the
+        default 0.5 px is a careful reading off ``video-jumplength calibrate``'s grid frame.
     clock : float
         Phase of the camera's frame clock: frames are taken at ``clock + k / fps`` [s].
     seed : int
@@ -125,7 +126,7 @@ class RenderOptions:
     blur_samples: int = 5
     person: bool = False
     flags: bool = False
-    marker_noise: float = 0.0
+    marker_noise: float = 0.5
     clock: float = 0.0
     seed: int = 0
 

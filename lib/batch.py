@@ -1,0 +1,209 @@
+"""Batch reprocessing: the per-session results of a sessions folder gathered into one summary table.
+
+``pipelines/batch.mk`` runs ``pipelines/session.mk`` for every ``SESSIONS/<name>/config.mk`` into
+``OUT/<name>/`` (with ``make -k -j N``: one bad session does not stop the others) and then
+``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy
+and a readable table, listing each failed session with its error line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion import io as sfio
+from sportfusion import meta as sfmeta
+from sportfusion import schema
+from sportfusion.errors import InputError
+
+__all__ = ["read_config", "session_row", "collect", "summary_table", "format_summary", "main"]
+
+#: Result table of each sport (the pipeline's last stage), relative to the session's OUT folder.
+RESULTS = {
+    "skijump": "smoothed.parquet",
+    "skirace": "attitude.parquet",
+    "gates": "anchored.parquet",
+    "climbing": "holds.parquet",
+}
+#: Summary columns in order: (name, arrow type).
+COLUMNS: tuple[tuple[str, pa.DataType], ...] = (
+    ("session", pa.string()),
+    ("sport", pa.string()),
+    ("status", pa.string()),
+    ("error", pa.string()),
+    ("duration", pa.float64()),
+    ("max_speed", pa.float64()),
+    ("jumps", pa.int64()),
+    ("jump_length", pa.float64()),
+    ("takeoff_speed", pa.float64()),
+    ("video_jump_length", pa.float64()),
+    ("pos_rms", pa.float64()),
+    ("vel_rms", pa.float64()),
+)
+
+
+def read_config(path: Path) -> dict[str, str]:
+    """``KEY = VALUE`` lines of a session's ``config.mk`` (comments and blank lines skipped)."""
+    out: dict[str, str] = {}
+    for line in path.read_text().splitlines():
+        m = re.match(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*[:?]?=\s*(.*?)\s*$", line.split("#", 1)[0])
+        if m:
+            out[m.group(1)] = m.group(2)
+    return out
+
+
+def _floats(table: pa.Table, name: str) -> np.ndarray | None:
+    return schema.floats(table, name) if name in table.column_names else None
+
+
+def _rms_3d(summary: pa.Table, names: tuple[str, str, str]) -> float:
+    """3-D RMS [m or m/s] from an evaluate summary's ``phase == all, stat == rms`` row."""
+    phase, stat = summary.column("phase").to_pylist(), summary.column("stat").to_pylist()
+    rows = [i for i, (p, s) in enumerate(zip(phase, stat, strict=True)) if p == "all" and s == "rms"]
+    if not rows or not all(n in summary.column_names for n in names):
+        return float("nan")
+    vals = np.array([summary.column(n)[rows[0]].as_py() or np.nan for n in names], float)
+    return float(np.sqrt(np.sum(vals**2)))
+
+
+def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
+    """One summary row from a session's output folder.
+
+    Parameters
+    ----------
+    name : str
+        Session name (its folder's name).
+    config : dict
+        Its ``config.mk`` values (``SPORT`` ...).
+    out : Path
+        Its output folder: ``error`` (written by batch.mk on failure), the result tables.
+
+    Returns
+    -------
+    dict
+        Column -> value; figures a sport does not produce are NaN (jumps: 0).
+    """
+    sport = config.get("SPORT", "?")
+    row: dict[str, Any] = {c: None for c, _ in COLUMNS}
+    row.update(session=name, sport=sport, status="ok", error="", jumps=0)
+    err = out / "error"
+    result = out / RESULTS.get(sport, "-")
+    if err.exists() or not result.exists():
+        row["status"] = "failed"
+        row["error"] = err.read_text().strip() if err.exists() else f"no result {result.name}"
+        return row
+    table, _ = sfio.read_table(result)
+    t = schema.floats(table, "t")
+    row["duration"] = float(t[-1] - t[0])
+    v = [_floats(table, f"v{a}") for a in "xyz"]
+    speed = _floats(table, "speed")
+    if speed is None and all(c is not None for c in v):
+        speed = np.linalg.norm(np.column_stack(v), axis=1)
+    if speed is not None and np.isfinite(speed).any():
+        row["max_speed"] = float(np.nanmax(speed))
+    jumps = out / "jumps.parquet"
+    if jumps.exists():
+        jt, _ = sfio.read_table(jumps, kind="jumps")
+        row["jumps"] = jt.num_rows
+        if jt.num_rows:
+            for col in ("jump_length", "takeoff_speed"):
+                if col in jt.column_names:
+                    row[col] = float(jt.column(col)[0].as_py())
+    video = out / "video.parquet"
+    if video.exists():
+        vt, _ = sfio.read_table(video, kind="jumps")
+        if vt.num_rows and "jump_length" in vt.column_names:
+            row["video_jump_length"] = float(vt.column("jump_length")[0].as_py())
+    ev = out / "evaluation.parquet"
+    if ev.exists():
+        st, _ = sfio.read_table(ev, kind="summary")
+        row["pos_rms"] = _rms_3d(st, ("x", "y", "z"))
+        row["vel_rms"] = _rms_3d(st, ("vel_n", "vel_e", "vel_d"))
+    return row
+
+
+def collect(sessions: Path, out: Path) -> list[dict[str, Any]]:
+    """Summary rows of every ``sessions/<name>/config.mk``, in name order.
+
+    Raises
+    ------
+    InputError
+        No session folder with a ``config.mk``.
+    """
+    configs = sorted(sessions.glob("*/config.mk"))
+    if not configs:
+        raise InputError(f"{sessions} has no <session>/config.mk; expected one folder per session")
+    rows = []
+    for cfg in configs:
+        name = cfg.parent.name
+        try:
+            rows.append(session_row(name, read_config(cfg), out / name))
+        except InputError as exc:
+            rows.append({**{c: None for c, _ in COLUMNS}, "session": name, "status": "failed", "error": str(exc)})
+    return rows
+
+
+def summary_table(rows: list[dict[str, Any]]) -> pa.Table:
+    """The rows as a pyarrow table with :data:`COLUMNS` (missing figures null)."""
+    cols = {}
+    for name, typ in COLUMNS:
+        vals = [r.get(name) for r in rows]
+        if pa.types.is_floating(typ):
+            vals = [None if v is None or not np.isfinite(v) else float(v) for v in vals]
+        cols[name] = pa.array(vals, typ)
+    return pa.table(cols)
+
+
+def format_summary(rows: list[dict[str, Any]]) -> str:
+    """A readable table: one line per session, then the failed sessions with their errors."""
+    head = f"{'session':<16} {'sport':<9} {'status':<7} {'dur[s]':>7} {'vmax[m/s]':>9} {'L[m]':>7} {'L_video':>7} {'v_TO':>6} {'pos_rms[m]':>10} {'vel_rms':>8}"
+    lines = [head, "-" * len(head)]
+
+    def f(v: Any, fmt: str) -> str:
+        missing = v is None or (isinstance(v, float) and not np.isfinite(v))
+        return "-".rjust(int(fmt.split(".")[0])) if missing else format(v, fmt)
+
+    for r in rows:
+        lines.append(
+            f"{r['session']:<16} {str(r.get('sport')):<9} {r['status']:<7} {f(r.get('duration'), '7.1f')} "
+            f"{f(r.get('max_speed'), '9.2f')} {f(r.get('jump_length'), '7.2f')} {f(r.get('video_jump_length'), '7.2f')} "
+            f"{f(r.get('takeoff_speed'), '6.2f')} {f(r.get('pos_rms'), '10.3f')} {f(r.get('vel_rms'), '8.3f')}"
+        )
+    failed = [r for r in rows if r["status"] != "ok"]
+    lines.append(f"\n{len(rows) - len(failed)} of {len(rows)} sessions ok, {len(failed)} failed")
+    lines += [f"  FAILED {r['session']}: {r['error']}" for r in failed]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m sportfusion.batch OUT [--sessions DIR]``: write OUT/summary.{parquet,csv,txt}; exit 1 if any
+    session failed."""
+    ap = argparse.ArgumentParser(prog="python -m sportfusion.batch", description=main.__doc__)
+    ap.add_argument("out", type=Path, help="batch output folder (one sub-folder per session)")
+    ap.add_argument("--sessions", type=Path, required=True, help="sessions folder (one sub-folder per session)")
+    args = ap.parse_args(argv)
+    try:
+        rows = collect(args.sessions, args.out)
+    except InputError as exc:
+        print(f"Error: batch: {exc}", file=sys.stderr)
+        return 1
+    table = summary_table(rows)
+    args.out.mkdir(parents=True, exist_ok=True)
+    sfio.write_bytes(sfio.table_to_bytes(table, sfmeta.new_meta("summary")), args.out / "summary.parquet")
+    import pyarrow.csv as pacsv
+
+    pacsv.write_csv(table, args.out / "summary.csv")
+    text = format_summary(rows)
+    (args.out / "summary.txt").write_text(text + "\n")
+    print(text)
+    return 0 if all(r["status"] == "ok" for r in rows) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,190 @@
+"""Shared helpers of the text readers: CSV dialect detection, header parsing, unit factors.
+
+Not a format module (it has no ``sniff``/``read``); phyphox, csvmap, xsens and
+bouldering use it.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+from sportfusion.errors import InputError
+
+_HEADER = re.compile(r"^\s*(.*?)\s*(?:[(\[]([^()\[\]]*)[)\]])?\s*$")
+_DECIMAL_COMMA = re.compile(r"^\s*\"?[-+]?\d+,\d+(?:[eE][-+]?\d+)?\"?\s*$")
+
+#: Unit spellings -> (canonical unit, factor to it).  Case matters (mG milligauss, mg milligram).
+UNITS: dict[str, tuple[str, float]] = {
+    # specific force / acceleration
+    "m/s^2": ("m/s^2", 1.0),
+    "m/s2": ("m/s^2", 1.0),
+    "m/s²": ("m/s^2", 1.0),
+    "m s^-2": ("m/s^2", 1.0),
+    "g": ("m/s^2", 9.80665),
+    # angular rate
+    "rad/s": ("rad/s", 1.0),
+    "deg/s": ("rad/s", math.pi / 180.0),
+    "°/s": ("rad/s", math.pi / 180.0),
+    "dps": ("rad/s", math.pi / 180.0),
+    # magnetic field
+    "uT": ("uT", 1.0),
+    "µT": ("uT", 1.0),  # micro sign U+00B5
+    "μT": ("uT", 1.0),  # greek mu U+03BC
+    "nT": ("uT", 1e-3),
+    "mT": ("uT", 1e3),
+    "T": ("uT", 1e6),
+    "G": ("uT", 100.0),
+    "gauss": ("uT", 100.0),
+    "mG": ("uT", 0.1),
+    "a.u.": ("1", 1.0),
+    "1": ("1", 1.0),
+    "": ("1", 1.0),
+    # pressure
+    "Pa": ("Pa", 1.0),
+    "hPa": ("Pa", 100.0),
+    "mbar": ("Pa", 100.0),
+    "kPa": ("Pa", 1000.0),
+    "bar": ("Pa", 1e5),
+    # length
+    "m": ("m", 1.0),
+    "km": ("m", 1000.0),
+    "cm": ("m", 0.01),
+    "mm": ("m", 1e-3),
+    "ft": ("m", 0.3048),
+    # speed
+    "m/s": ("m/s", 1.0),
+    "km/h": ("m/s", 1.0 / 3.6),
+    "kn": ("m/s", 1852.0 / 3600.0),
+    "kt": ("m/s", 1852.0 / 3600.0),
+    "knots": ("m/s", 1852.0 / 3600.0),
+    "mph": ("m/s", 0.44704),
+    # angles
+    "deg": ("deg", 1.0),
+    "°": ("deg", 1.0),
+    "rad": ("rad", 1.0),
+    # time
+    "s": ("s", 1.0),
+    "ms": ("s", 1e-3),
+    "us": ("s", 1e-6),
+    "µs": ("s", 1e-6),
+    "ns": ("s", 1e-9),
+}
+#: Angles convert between deg and rad.
+_ANGLE = {("deg", "rad"): math.pi / 180.0, ("rad", "deg"): 180.0 / math.pi}
+
+
+def unit_factor(given: str, target: str, what: str) -> float:
+    """Factor that turns values in unit ``given`` into unit ``target``.
+
+    Raises :class:`InputError` naming ``what`` when the units do not convert.
+    """
+    given = given.strip()
+    if given == target:
+        return 1.0
+    if given not in UNITS:
+        raise InputError(
+            f"{what}: unknown unit {given!r}; expected a unit convertible to {target!r} "
+            f"(known: {', '.join(sorted(k for k, v in UNITS.items() if k and v[0] == UNITS.get(target, (target,))[0]))})"
+        )
+    canon, factor = UNITS[given]
+    tcanon, tfactor = UNITS.get(target, (target, 1.0))
+    if canon == tcanon:
+        return factor / tfactor
+    if (canon, tcanon) in _ANGLE:
+        return factor * _ANGLE[(canon, tcanon)] / tfactor
+    raise InputError(f"{what}: unit {given!r} does not convert to {target!r}")
+
+
+def split_header(header: str) -> tuple[str, str]:
+    """``"Acceleration x (m/s^2)"`` -> ``("acceleration x", "m/s^2")``: name normalised, unit as written."""
+    m = _HEADER.match(header.strip().strip('"'))
+    name, unit = (m.group(1), m.group(2) or "") if m else (header, "")
+    name = re.sub(r"[\s_]+", " ", name.replace("\ufeff", "")).strip().lower()
+    return name, unit.strip()
+
+
+def decode(data: bytes) -> str:
+    """Text of a file: UTF-8 (with or without BOM), else Latin-1."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def dialect(text: str) -> tuple[str, str]:
+    """Separator and decimal mark of a delimited text table (header line first).
+
+    The separator is the character after the first quoted header when headers
+    are quoted (phyphox), else the most frequent of tab, semicolon and comma in
+    the header line.  The decimal mark is a comma only when the separator is
+    not a comma and a data cell looks like ``9,81`` (or ``9,810000000E0``).
+    """
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if not lines:
+        raise InputError("the file has no header line")
+    head = lines[0].lstrip("\ufeff")
+    sep = None
+    if head.startswith('"'):
+        end = head.find('"', 1)
+        if 0 < end < len(head) - 1 and head[end + 1] in ",;\t":
+            sep = head[end + 1]
+    if sep is None:
+        counts = {c: head.count(c) for c in ("\t", ";", ",")}
+        sep = max(counts, key=lambda c: counts[c]) if any(counts.values()) else ","
+    dec = "."
+    if sep != ",":
+        for line in lines[1:50]:
+            if any(_DECIMAL_COMMA.match(cell) for cell in line.split(sep)):
+                dec = ","
+                break
+    return sep, dec
+
+
+def read_delimited(text: str, what: str, numeric: bool = True) -> pa.Table:
+    """Parse a delimited text table whose first line is the header (dialect detected).
+
+    Cells ``NaN``/empty become null.  With ``numeric`` every column is float64.
+    Column names are the headers as written (quotes removed).
+    """
+    sep, dec = dialect(text)
+    lines = [ln.rstrip("\r") for ln in text.splitlines() if ln.strip()]
+    if lines and lines[0].endswith(sep):  # every line ends with a separator (MT Manager): drop that empty column
+        lines = [ln[:-1] if ln.endswith(sep) else ln for ln in lines]
+    body = "\n".join(lines)
+    data = body.lstrip("\ufeff").encode("utf-8")
+    try:
+        table = pacsv.read_csv(
+            io.BytesIO(data),
+            parse_options=pacsv.ParseOptions(delimiter=sep, quote_char='"'),
+            convert_options=pacsv.ConvertOptions(decimal_point=dec, strings_can_be_null=True),
+            read_options=pacsv.ReadOptions(autogenerate_column_names=False),
+        )
+    except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
+        msg = str(exc).splitlines()[0]
+        raise InputError(f"{what}: not a readable table ({msg}); expected a header line and delimited rows") from exc
+    if numeric:
+        cols = {}
+        for name in table.column_names:
+            col = table.column(name)
+            if pa.types.is_null(col.type):
+                col = pa.nulls(len(col), pa.float64())
+            try:
+                cols[name] = col.cast(pa.float64())
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
+                raise InputError(
+                    f"{what}: column {name!r} holds text that is not a number (decimal mark {dec!r}, separator "
+                    f"{sep!r}); expected numbers or NaN"
+                ) from exc
+        table = pa.table(cols) if cols else table
+    return table
+
+
+def floats(table: pa.Table, name: str) -> np.ndarray:
+    """Column as a float64 numpy array, nulls as NaN."""
+    return np.asarray(table.column(name).cast(pa.float64()).fill_null(np.nan).to_numpy(), dtype=np.float64)

@@ -1,0 +1,227 @@
+"""rts-smooth: accuracy against the simulator's truth, output columns, windows, several jumps, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyarrow as pa
+import pytest
+from conftest import run_cli
+
+from sportfusion import io as sfio
+from sportfusion import meta as sfmeta
+from sportfusion import schema
+from sportfusion.evaluate import errors
+from sportfusion.frames import gnss_local_columns
+from sportfusion.hillfile import load_hill
+from sportfusion.rts_skijump import SmootherConfig, rts_smooth_table
+
+FIX = "fixtures/skijump/"
+HILL = "oberstdorf_hs106"
+
+
+def _rms(a: np.ndarray) -> float:
+    return float(np.sqrt(np.nanmean(np.asarray(a) ** 2)))
+
+
+@pytest.fixture(scope="module")
+def fixture_run():
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    truth, tmeta = sfio.read_table(FIX + "truth.parquet", kind="truth")
+    times = tmeta["skijump"]["times"]
+    hill = load_hill(HILL)
+    out, ometa, msg = rts_smooth_table(
+        tab, meta, hill, takeoff=[times["takeoff"]], touchdown=[times["touchdown"]], filtered=True
+    )
+    return tab, meta, truth, tmeta, hill, out, ometa
+
+
+def test_keeps_input_and_adds_registered_columns(fixture_run):
+    tab, _, _, _, _, out, ometa = fixture_run
+    assert out.num_rows == tab.num_rows
+    for name in tab.column_names:
+        assert out.column(name).equals(tab.column(name))
+    want = ["x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"]
+    want += [f"{p}_{a}" for p in ("bias_gyr", "bias_acc", "bias_mag", "scale_mag") for a in "xyz"]
+    want += [f"std_{n}" for n in want] + ["c_q", "c_v_ir", "c_h_ir", "c_v_la"]
+    want += [f"filt_{n}" for n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw")]
+    for name in want:
+        assert name in out.column_names, name
+        assert schema.lookup(name) is not None, name
+    assert ometa["frame"]["azimuth_deg"] == 312.6
+    assert set(ometa["rts"]["residual_rms"]) >= {"gnss_pos", "gnss_vel", "mag", "c_q", "c_v_ir", "c_h_ir", "c_v_la"}
+
+
+def test_end_to_end_accuracy_far_better_than_gnss(fixture_run):
+    """Tolerances: Table 6 of the paper gives 0.11-0.16 m, 0.02-0.03 m/s, 0.3-0.8 deg; GNSS alone has 3/3/5 m."""
+    tab, meta, truth, tmeta, _, out, _ = fixture_run
+    az = meta["frame"]["azimuth_deg"]
+    _, _, err = errors(out, truth, az)
+    g = gnss_local_columns(tab, load_hill(HILL).frame())
+    gout = tab.append_column("gnss_x", pa.array(g["gnss_x"])).append_column("gnss_y", pa.array(g["gnss_y"]))
+    gout = gout.append_column("gnss_z", pa.array(g["gnss_z"]))
+    _, _, gerr = errors(gout, truth, az, gnss=True)
+    for a in "xyz":
+        assert _rms(err[a]) < 0.3, (a, _rms(err[a]))
+        assert _rms(err[a]) < _rms(gerr[a]) / 8, (a, _rms(err[a]), _rms(gerr[a]))
+    for a in ("vel_n", "vel_e", "vel_d"):
+        assert _rms(err[a]) < 0.05, (a, _rms(err[a]))
+        assert _rms(err[a]) < _rms(gerr[a]) / 2
+    assert np.degrees(_rms(err["rot_angle"])) < 1.0
+    # the forward filter alone is worse than the smoother
+    fout = out.select(["t"]).append_column("x", out.column("filt_x"))
+    _, _, ferr = errors(fout, truth, az)
+    assert _rms(ferr["x"]) > _rms(err["x"])
+
+
+def test_std_columns_are_consistent_with_the_errors(fixture_run):
+    _, meta, truth, _, _, out, _ = fixture_run
+    _, i_est, err = errors(out, truth, meta["frame"]["azimuth_deg"])
+    for a in "xyz":
+        s = schema.floats(out, f"std_{a}")[i_est]
+        assert np.all(s > 0)
+        z = _rms(err[a] / s)
+        assert 0.2 < z < 3.0, (a, z)
+
+
+def test_biases_are_estimated(fixture_run):
+    _, _, truth, tmeta, _, out, _ = fixture_run
+    true = tmeta["skijump"]["sensor_errors"]
+    for k, a in enumerate("xyz"):
+        est = schema.floats(out, f"bias_gyr_{a}")[-1]
+        assert abs(est - true["bias_gyr"][k]) < 0.1 * 0.0873 + 0.003, (a, est, true["bias_gyr"][k])
+        est = schema.floats(out, f"bias_mag_{a}")[-1]
+        assert abs(est - true["bias_mag"][k]) < 2.5, (a, est, true["bias_mag"][k])
+
+
+def test_constraint_residual_columns_and_windows(fixture_run):
+    _, _, _, tmeta, _, out, _ = fixture_run
+    t = schema.floats(out, "t")
+    to, td = tmeta["skijump"]["times"]["takeoff"], tmeta["skijump"]["times"]["touchdown"]
+    cv, ch, cl, cq = (schema.floats(out, c) for c in ("c_v_ir", "c_h_ir", "c_v_la", "c_q"))
+    assert np.isfinite(cv[t <= to]).all() and np.isnan(cv[t > to + 1e-9]).all()
+    assert np.isfinite(ch[t <= to]).all() and np.isnan(ch[t > to + 1e-9]).all()
+    assert np.isnan(cl[t <= td]).all() and np.isfinite(cl[t > td + 0.01]).all()
+    # soft constraints of 0.1 m: residuals of that order; the unit-norm constraint much tighter
+    assert _rms(cv) < 0.15 and _rms(ch) < 0.15 and _rms(cl) < 0.15
+    assert np.abs(cq).max() < 5e-3
+
+
+@pytest.mark.slow
+def test_hill_constraints_improve_height(fixture_run):
+    tab, meta, truth, tmeta, hill, out, _ = fixture_run
+    times = tmeta["skijump"]["times"]
+    free, _, _ = rts_smooth_table(
+        tab,
+        meta,
+        hill,
+        SmootherConfig(hill_constraints=False),
+        takeoff=[times["takeoff"]],
+        touchdown=[times["touchdown"]],
+    )
+    az = meta["frame"]["azimuth_deg"]
+    e_c = errors(out, truth, az)[2]
+    e_f = errors(free, truth, az)[2]
+    assert _rms(e_c["z"]) < 0.5 * _rms(e_f["z"])
+    assert np.isnan(schema.floats(free, "c_v_ir")).all()
+
+
+def _slice_bytes(n: int = 300) -> bytes:
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    return sfio.table_to_bytes(tab.slice(0, n), meta)
+
+
+def test_cli_short_session_with_filtered_output():
+    res = run_cli(["rts-smooth", "--hill", HILL, "--filtered", "-q"], stdin=_slice_bytes())
+    assert res.returncode == 0, res.stderr.decode()
+    assert res.stderr == b""
+    import io
+
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(io.BytesIO(res.stdout))
+    meta = sfmeta.decode(table.schema.metadata[b"sportfusion"])
+    assert meta["provenance"][-1]["tool"] == "rts-smooth"
+    assert "filt_x" in table.column_names and table.column("x").null_count == 0
+
+
+@pytest.mark.parametrize(
+    ("args", "drop", "expect"),
+    [
+        ([], ("gyr_x",), "gyr_x"),
+        ([], ("lat", "lon", "h"), "gnss"),
+        (["--takeoff", "100", "--touchdown", "101"], (), "outside"),
+        (["--takeoff", "1"], (), "touch-down"),
+        (["--hill-set", "lat=47.6"], (), "km from the hill"),
+    ],
+    ids=["no-imu", "no-gnss", "events-outside", "unpaired-event", "hill-far-away"],
+)
+def test_cli_bad_input_one_line(args, drop, expect):
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    tab = tab.slice(0, 300)
+    if drop:
+        tab = tab.drop_columns(list(drop))
+    res = run_cli(["rts-smooth", "--hill", HILL, *args], stdin=sfio.table_to_bytes(tab, meta))
+    assert res.returncode == 1, res.stderr.decode()
+    assert res.stdout == b""
+    lines = res.stderr.decode().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: rts-smooth: "), lines
+    assert expect in lines[0].lower() or expect in lines[0], lines[0]
+
+
+@pytest.mark.slow
+def test_two_jumps_in_one_session():
+    """Two simulated jumps 30 s apart (IMU gap between them): each smoothed, both metrics near truth."""
+    from sportfusion.jump_metrics import jump_metrics_table
+    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+
+    hill = load_hill(HILL)
+    sims = [simulate_skijump(hill, SkiJumpConfig(seed=s)) for s in (3, 4)]
+    t1 = schema.floats(sims[0].session, "t")
+    shift = t1[-1] + 30.0
+    second = sims[1].session
+    second = second.set_column(0, "t", pa.array(schema.floats(second, "t") + shift))
+    session = pa.concat_tables([sims[0].session, second])
+    tt = [sims[0].truth_meta["skijump"]["times"], sims[1].truth_meta["skijump"]["times"]]
+    to = [tt[0]["takeoff"], tt[1]["takeoff"] + shift]
+    td = [tt[0]["touchdown"], tt[1]["touchdown"] + shift]
+    out, ometa, _ = rts_smooth_table(session, sims[0].session_meta, hill, takeoff=to, touchdown=td)
+    truth = pa.concat_tables(
+        [sims[0].truth, sims[1].truth.set_column(0, "t", pa.array(schema.floats(sims[1].truth, "t") + shift))]
+    )
+    err = errors(out, truth, 312.6)[2]
+    for a in "xyz":
+        assert _rms(err[a]) < 0.3
+    # no estimate in the gap between the recordings
+    t = schema.floats(out, "t")
+    assert np.isfinite(schema.floats(out, "x")).all()
+    assert t.size == session.num_rows
+    # jump metrics need the events in the table
+    from sportfusion.events import set_events
+
+    out = set_events(out, [("takeoff", to[0]), ("touchdown", td[0]), ("takeoff", to[1]), ("touchdown", td[1])])
+    jumps, jmeta, _ = jump_metrics_table(out, ometa, hill)
+    assert jumps.num_rows == 2
+    got = schema.floats(jumps, "jump_length")
+    want = [s.truth_meta["jump_length"] for s in sims]
+    assert np.abs(got - want).max() < 1.0, (got, want)
+
+
+def test_compiled_engine_equals_reference_engine():
+    """The numba loop (packed covariances, scalar updates) reproduces ekf_rts with the model callables."""
+    pytest.importorskip("numba")
+    from sportfusion import rts_skijump as R
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    tab = tab.slice(0, 900)  # 9 s: rest, release, in-run
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(passes=1)
+    inp, _ = R.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
+    a = R.smooth_inputs(inp, hill, cfg, engine="numba")
+    b = R.smooth_inputs(inp, hill, cfg, engine="numpy")
+    np.testing.assert_allclose(a.x_filt, b.x_filt, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.x_smooth, b.x_smooth, rtol=0, atol=1e-9)
+    idx = np.arange(22)
+    np.testing.assert_allclose(a.cov(idx), b.cov(idx), rtol=0, atol=1e-10)
+    assert set(a.residuals) == set(b.residuals)
+    for k in a.residuals:
+        np.testing.assert_allclose(a.residuals[k], b.residuals[k], rtol=0, atol=1e-9)
