@@ -126,3 +126,22 @@ def test_bad_inputs(tmp_path, sim):
     no_mag = sfio.table_to_bytes(s.session.drop(["mag_x", "mag_y", "mag_z"]), sfmeta.new_meta("session", 0.0))
     r = run_cli(["detect-events", "--kind", "gates"], stdin=no_mag)
     assert r.returncode == 1 and "no magnetometer" in r.stderr.decode()
+
+
+def test_wgs84_survey_lands_in_the_session_frame():
+    from sportfusion.frames import Frame
+    from sportfusion.gates.pipeline import survey_in_frame
+
+    loc = simulate_gates(GatesConfig(seed=8, n_gates=5))
+    geo = simulate_gates(GatesConfig(seed=8, n_gates=5), survey_wgs84=True)
+    frame = Frame.from_meta(loc.meta["frame"])
+    a, _ = survey_in_frame(loc.survey, loc.survey_meta, frame)
+    b, _ = survey_in_frame(geo.survey, geo.survey_meta, frame)
+    assert np.abs(a - b).max() < 1e-6 and np.abs(a - loc.magnets).max() < 0.15  # same seed: same survey noise
+    # a session in another frame (shifted origin, rotated azimuth): the survey follows it
+    other = Frame(frame.lat + 0.001, frame.lon, frame.h, frame.azimuth_deg + 30.0)
+    c, _ = survey_in_frame(loc.survey, loc.survey_meta, other)
+    assert np.allclose(
+        np.linalg.norm(np.diff(c, axis=0), axis=1), np.linalg.norm(np.diff(a, axis=0), axis=1), atol=1e-6
+    )
+    assert np.abs(c - a).max() > 50

@@ -69,6 +69,14 @@ from sportfusion.tools._cli import Tool, tool
     help="Depth of the magnets below the snow surface [m].",
 )
 @click.option(
+    "--projection",
+    type=click.Choice(["vertical", "normal"]),
+    default="vertical",
+    show_default=True,
+    help="Sacrum -> magnet plane direction: vertical (the |B| peak of a vertical dipole is above the magnet) "
+    "or normal (the paper's eq 6, along the snow-plane normal) [choice].",
+)
+@click.option(
     "--q-jerk",
     default=EKSParams.q_jerk,
     show_default=True,
@@ -91,6 +99,7 @@ def main(
     sigma_second: float,
     sacrum_height: float,
     burial: float,
+    projection: str,
     q_jerk: float,
     sigma_acc: float,
 ) -> None:
@@ -117,6 +126,7 @@ def main(
         anchors_every=anchors_every,
         sacrum_height=sacrum_height,
         burial=burial,
+        projection=projection,
         eks=EKSParams(q_jerk=q_jerk, sigma_acc=sigma_acc),
     )
     out, meta, msg = gate_anchor_table(table, meta, survey, smeta, params)

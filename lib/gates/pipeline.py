@@ -4,7 +4,7 @@
    (:mod:`sportfusion.gates.inertial`); gravity-removed acceleration in the global frame.
 2. EKS 1 (:func:`sportfusion.gates.eks.run_eks`): acceleration + zero-velocity updates at the static start
    and finish.
-3. Relative anchor points at the detected crossings (:func:`relative_anchors`, vertical snow normal) and
+3. Relative anchor points at the detected crossings (:func:`relative_anchors`, vertical direction) and
    their matching to the survey (:func:`match_anchors`: PCA azimuth ``alpha``, features, eq 9, median
    offset ``o``, absolute re-matching).
 4. EKS 2, first iteration: the matched anchors (surveyed magnet minus the relative offset, in the inertial
@@ -61,6 +61,12 @@ class GateAnchorParams:
         Sacrum height above the snow at zero lean [m] (body model: ``h = H0 cos(roll)``).
     burial : float
         Depth of the magnets below the snow [m].
+    projection : {"vertical", "normal"}
+        Direction from the sacrum down to the magnet's plane: ``"normal"`` is the paper's (eq 6: along the
+        snow-plane normal, the crossing taken as the closest approach); ``"vertical"`` (default) follows the
+        physics of the detector: the peak of ``|B|`` of a vertical dipole comes when the sensor is above the
+        magnet, which on a 12 deg slope is about 0.1 m before the closest approach (measured on the
+        simulator: position error 0.16 -> 0.08 m on one run).
     """
 
     rate: float = 100.0
@@ -69,6 +75,7 @@ class GateAnchorParams:
     anchors_every: int = 1
     sacrum_height: float = 0.95
     burial: float = 0.05
+    projection: str = "vertical"
     eks: EKSParams = field(default_factory=EKSParams)
     match: MatchParams = field(default_factory=MatchParams)
 
@@ -113,7 +120,7 @@ def _anchor_updates(
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
     normal_s, _ = snow_normals(survey, ids)
-    normal_j = rotate_z(normal_s, -alpha)
+    normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
     est = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal_j, p.burial)
     rel = est - pc
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
@@ -283,7 +290,9 @@ def gate_anchor_arrays(
         r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
         normal_s, _ = snow_normals(survey, ids)
-        det2 = _detected_anchors(tg, track, vel, cross, rotate_z(normal_s, -alpha), p)
+        det2 = _detected_anchors(
+            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p
+        )
         m2 = match_anchors(
             cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, survey_side, p.match, alpha=0.0
         )
@@ -417,7 +426,12 @@ def gate_anchor_table(
             q = quat_multiply(qz, qn)
     g = normal_gravity(frame.lat, frame.h) if frame is not None else G_STANDARD
     dist = np.where(np.isfinite(cr["distance"]), cr["distance"], np.nan)
-    res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)
+    from sportfusion.kalman import CovarianceError
+
+    try:
+        res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)
+    except CovarianceError as exc:
+        raise InputError(f"the smoother failed: {exc}") from exc
     cols: dict[str, Any] = {}
     for i, a in enumerate("xyz"):
         cols[a] = np.interp(t, res.t, res.pos[:, i])
