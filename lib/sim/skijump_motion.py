@@ -46,7 +46,7 @@ take-off and touch-down fall on IMU sample times.  Integrating the noise-free
 truth IMU with RK4 and linearly interpolated inputs (the smoother's scheme)
 then reproduces the trajectory to 0.6-3.2 cm over a whole session (gate, jump,
 stop and 3 s of rest) on every shipped hill, HS38 to HS210 (3 seeds each, and
-16 seeds on the four smallest hills); the residual is the scheme's own error,
+16 seeds on the four smallest hills; ``bench/bench_sim_skijump.py``); the residual is the scheme's own error,
 mostly the attitude's coning error under the arm's oscillations (a few
 thousandths of a degree, which leaks gravity into the velocity).  A kink of
 the acceleration (a jerk jump ``dj``) would cost ``dt^2 dj / 12`` of velocity
