@@ -32,6 +32,21 @@ def smoothstep(u: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return s, d1, d2
 
 
+def smoothstep5(u: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """C5 smoothstep ``S(u) = 2772 int_0^u s^5 (1 - s)^5 ds`` (degree 11) on [0, 1], constant outside.
+
+    Returns
+    -------
+    S, dS/du, d2S/du2 : ndarray
+        Value and first two derivatives; the first to fifth derivatives vanish at 0 and 1.
+    """
+    u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+    s = u**6 * (462 + u * (-1980 + u * (3465 + u * (-3080 + u * (1386 - 252 * u)))))
+    d1 = 2772 * u**5 * (1 - u) ** 5
+    d2 = 13860 * u**4 * (1 - u) ** 4 * (1 - 2 * u)
+    return s, d1, d2
+
+
 def pulse_shape(tau: np.ndarray | float, tau_r: float, tau_d: float) -> np.ndarray:
     """Unit-peak pulse ``(1 - exp(-(tau/tau_r)^2)) exp(-(tau/tau_d)^2)``, zero for ``tau < 0``.
 
