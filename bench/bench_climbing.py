@@ -11,7 +11,7 @@ the end of the trial, pooled over all trials (the paper pools its sparse optical
 Transition-only integrates the transition velocities from the true position at the first
 grip (as the paper's implementation starts it at the first optical-truth sample).
 
-The seeds (1000-1049) are disjoint from the ones the PF defaults were chosen on (0-15).
+The seeds (1000-1049) are disjoint from the ones the PF defaults were chosen on (0-23).
 
 Run: ``python bench/bench_climbing.py [TRIALS]`` (accuracy on every CPU core; the speed
 figure on one core, BLAS limited to one thread).
@@ -126,6 +126,11 @@ def report(rows: list[dict]) -> None:
         if es:
             s = stats(np.concatenate(es))
             print(f"  trials {label} range violations ({len(es)}): median {s[1]:.3f} m, RMSE {s[3]:.3f} m")
+    lost = [r for r in rows if np.median(r["err"]["Transition-Only"]) > 1.0]
+    print(
+        f"  transition estimate lost (transition-only median > 1 m): {len(lost)}/{len(rows)} trials"
+        + (": seeds " + ", ".join(str(r["seed"]) for r in lost) if lost else "")
+    )
     worst = sorted(rows, key=lambda r: -np.median(r["err"]["PF smoother"]))[:5]
     print(
         "  worst trials (seed: smoother median [m], start ok, wall grips): "

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportfusion.rotations import euler_from_quat, to_ned
+from sportfusion.rotations import dcm_from_quat, euler_from_dcm
 
 __all__ = [
     "quest",
@@ -323,20 +323,27 @@ def dmc_attitude(
     body = np.stack((f_b, m_b), axis=1)
     ref = np.stack((f_l, m_l), axis=1)
     q, loss = quest(body, ref, np.array([weight_acc, weight_mag]))
-    roll, pitch, yaw = euler_from_quat(q)
-    sin_min = np.sin(np.deg2rad(min_angle_deg))
+    M = dcm_from_quat(q)  # one DCM for the Euler angles and the re-estimated acceleration
+    roll, pitch, yaw = euler_from_dcm(M)
+    sin2_min = np.sin(np.deg2rad(min_angle_deg)) ** 2
 
-    def sin_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(np.cross(_unit(u), _unit(v)), axis=-1)
+    def norm2(u: np.ndarray) -> np.ndarray:
+        return np.einsum("...i,...i->...", u, u)
 
-    with np.errstate(invalid="ignore"):
+    def sin2_angle(u: np.ndarray, v: np.ndarray, uu: np.ndarray, vv: np.ndarray) -> np.ndarray:
+        """sin^2 of the angle between u and v: 1 - cos^2, from the squared norms uu, vv."""
+        uv = np.einsum("...i,...i->...", u, v)
+        return 1.0 - uv * uv / (uu * vv)
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ffl, ffb, mml, mmb = norm2(f_l), norm2(f_b), norm2(np.asarray(m_ref_ned, float)), norm2(m_b)
         singular = (
-            (np.linalg.norm(f_l, axis=-1) < free_fall)
-            | (np.linalg.norm(f_b, axis=-1) < free_fall)
-            | (sin_angle(f_l, m_l) < sin_min)
-            | (sin_angle(f_b, m_b) < sin_min)
+            (ffl < free_fall**2)
+            | (ffb < free_fall**2)
+            | (sin2_angle(f_l, m_l, ffl, mml) < sin2_min)
+            | (sin2_angle(f_b, m_b, ffb, mmb) < sin2_min)
         )
-    acc_kin = to_ned(q, f_b)
+    acc_kin = np.einsum("nji,nj->ni", M, f_b)  # M_BO^T f^b: specific force in NED
     acc_kin[:, 2] += g
     if coriolis is not None:
         acc_kin = acc_kin - coriolis

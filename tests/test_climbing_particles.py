@@ -69,7 +69,10 @@ def test_ffbsm_matches_the_formula_evaluated_naively():
         pred = model.predict(k, pos[k], psi[k])
         f = np.array(
             [
-                [multivariate_normal(np.r_[pred[i], psi[k, i]], q).pdf(np.r_[pos[k + 1, j], psi[k + 1, j]]) for j in range(m)]
+                [
+                    multivariate_normal(np.r_[pred[i], psi[k, i]], q).pdf(np.r_[pos[k + 1, j], psi[k + 1, j]])
+                    for j in range(m)
+                ]
                 for i in range(m)
             ]
         )
@@ -139,10 +142,26 @@ def test_descent_switches_to_the_wall_holds():
     ids, centres = route
     # the route lacks hold 3: before the descent time the last grip is "elsewhere"
     short = (ids[:3], centres[:3])
-    res = pf.run_particle_filter(t, v, cov, grip, short, start, UP, params=PFParams(particles=100), seed=0, smooth=False)
+    res = pf.run_particle_filter(
+        t, v, cov, grip, short, start, UP, params=PFParams(particles=100), seed=0, smooth=False
+    )
     last = np.flatnonzero(grip)[-1]
     assert res.label[last] == -1
     res = pf.run_particle_filter(
         t, v, cov, grip, short, start, UP, wall_holds=route, descent_time=t[last] - 0.5, seed=0, smooth=False
     )
     assert res.label[last] == 3
+
+
+def test_position_noise_is_the_velocity_error_times_dt():
+    """Eq 17 carries the transition velocity's error n_v ~ N(0, Sigma_v) through dT: the per-step
+    position noise is Sigma_v dT^2 (as in the authors' implementation), the yaw noise yaw_psd dT."""
+    rng = np.random.default_rng(7)
+    n = 50
+    t = np.cumsum(rng.uniform(0.008, 0.012, n))
+    a = rng.normal(0, 0.1, (n, 3, 3))
+    cov = a @ np.swapaxes(a, 1, 2) + 1e-3 * np.eye(3)
+    model = pf._Model(t, rng.normal(0, 1, (n, 3)), cov, UP, 0.09)
+    dt = np.diff(t)
+    np.testing.assert_allclose(model.chol @ np.swapaxes(model.chol, 1, 2), cov[:-1] * dt[:, None, None] ** 2, rtol=1e-9)
+    np.testing.assert_allclose(model.yaw_sigma**2, 0.09 * dt, rtol=1e-12)

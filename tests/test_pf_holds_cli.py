@@ -113,3 +113,31 @@ def test_missing_hold_map_and_missing_grips_are_one_line(trial, tmp_path):
     session_as_map.write_bytes(raw)
     assert "holds" in _one_line(*_invoke(["--holds", str(session_as_map)], data))
     assert "route" in _one_line(*_invoke(["--holds", str(holds), "--route", "nope"], data))
+
+
+@pytest.mark.slow
+def test_descent_after_opens_the_wall_holds(tmp_path):
+    """Before the descent time grips match the route's holds only; after it, any hold of the wall.
+    Seed 18 down-climbs on holds 15, 17 and 20 of other routes."""
+    sim = simulate_boulder(BoulderConfig(seed=18, route_holds=10, imu_rate=60))
+    data = sfio.table_to_bytes(with_columns(sim.session, grip_columns(sim.session)[0]), sim.meta)
+    holds = tmp_path / "holds.parquet"
+    sfio.write_table(sim.holds, sim.holds_meta, holds)
+    route = set(np.asarray(sim.holds.column("hold"))[np.asarray(sim.holds.column("route")) == sim.route].tolist())
+    t = schema.floats(sim.session, "t")
+    true_hold = np.asarray(sim.truth.column("true_hold").fill_null(-2).to_numpy())
+    off_route = set(true_hold[t > sim.descent_time].tolist()) - route - {-1, -2}
+    assert off_route  # the scenario this test is about
+
+    def hold_ids(*args: str) -> np.ndarray:
+        code, out, err = _invoke(["--holds", str(holds), "-q", *args], data)
+        assert code == 0, err
+        return np.asarray(sfio.table_from_bytes(out).column("hold_id").fill_null(-2).to_numpy())
+
+    default = hold_ids()  # the session's climbing.descent_time
+    never = hold_ids("--descent-after", "1e6")
+    given = hold_ids("--descent-after", str(sim.descent_time))
+    assert np.array_equal(default, given)
+    assert set(never.tolist()) <= route | {-1, -2}
+    assert set(default[t < sim.descent_time].tolist()) <= route | {-1, -2}
+    assert set(default[t > sim.descent_time].tolist()) & off_route  # found at least one of the wall's holds
