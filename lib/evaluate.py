@@ -71,12 +71,16 @@ class Evaluation:
         Estimated take-off/touch-down events matched to no true event, per name.
     variables : list of str
         The variables the estimate provided.
+    phases : tuple of str
+        The phases reported: all four of :data:`PHASES` when the truth has a take-off, else only
+        ``all`` (a ski race or a climbing trial has no in-run, flight or out-run).
     """
 
     stats: dict[str, dict[str, Any]]
     jumps: list[dict[str, float]] = field(default_factory=list)
     false_events: dict[str, int] = field(default_factory=dict)
     variables: list[str] = field(default_factory=list)
+    phases: tuple[str, ...] = PHASES
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -362,7 +366,8 @@ def evaluate(
     label = phases(t, tev)
     stats: dict[str, dict[str, Any]] = {}
     any_value = np.any([np.isfinite(e) for e in err.values()], axis=0)
-    for ph in PHASES:
+    used = PHASES if any(name == "takeoff" for name, _ in tev) else ("all",)
+    for ph in used:
         sel = any_value & (True if ph == "all" else label == ph)
         per = {name: _stats(e[sel]) for name, e in err.items()}
         stats[ph] = {s: {name: per[name][s] for name in err} for s in STATS}
@@ -375,7 +380,7 @@ def evaluate(
     for k in range(n_jumps):
         if k < len(l_true) and k < len(l_est):
             jumps[k]["jump_length_error"] = l_est[k] - l_true[k]
-    return Evaluation(stats=stats, jumps=jumps, false_events=false, variables=list(err))
+    return Evaluation(stats=stats, jumps=jumps, false_events=false, variables=list(err), phases=used)
 
 
 def summary_table(ev: Evaluation) -> pa.Table:
@@ -392,7 +397,7 @@ def summary_table(ev: Evaluation) -> pa.Table:
     extra = ("takeoff_dt", "touchdown_dt", "jump_length_error")
     for name in extra:
         rows[name] = []
-    for ph in PHASES:
+    for ph in ev.phases:
         for s in STATS:
             rows["phase"].append(ph)
             rows["stat"].append(s)
@@ -451,7 +456,7 @@ def format_text(ev: Evaluation, title: str = "") -> str:
     head = f"{'phase':<8}{'stat':<6}{'samples':>8}" + "".join(f"{lab:>13}" for _, _, lab in cols)
     lines = [title] if title else []
     lines += [head, "-" * len(head)]
-    for ph in PHASES:
+    for ph in ev.phases:
         for s in STATS:
             vals = []
             for name, _, _ in cols:

@@ -217,3 +217,17 @@ def test_gnss_without_vertical_velocity(truth):
     assert ev.stats["all"]["rms"]["vel_e"] == pytest.approx(0.03, abs=1e-12)
     assert ev.stats["all"]["max"]["x"] == pytest.approx(1.5, abs=1e-9)
     assert ev.stats["all"]["n"] == t.size
+
+
+def test_session_without_a_jump_reports_only_the_whole_session():
+    t = np.arange(0.0, 5.0, 0.01)
+    meta = sfmeta.new_meta("truth", 1.7e9)
+    truth_t = pa.table({"t": t, "true_x": t, "true_y": 0 * t, "true_z": 0 * t})
+    est = pa.table({"t": t, "x": t + 0.1, "y": 0 * t - 0.2, "z": 0 * t})
+    ev = evaluate(est, sfmeta.new_meta("session", 1.7e9), truth_t, meta)
+    assert ev.phases == ("all",)
+    table = summary_table(ev)
+    assert set(table.column("phase").to_pylist()) == {"all"}
+    rms = {r["stat"]: r for r in table.to_pylist()}["rms"]
+    assert rms["x"] == pytest.approx(0.1) and rms["y"] == pytest.approx(0.2) and rms["z"] == 0.0
+    assert "inrun" not in format_text(ev)
