@@ -268,7 +268,7 @@ def test_fixture_regenerates_bit_for_bit(tmp_path):
         [sys.executable, str(ROOT / "fixtures" / "make_skijump.py"), str(tmp_path)], capture_output=True, timeout=300
     )
     assert res.returncode == 0, res.stderr
-    for name in ("session.parquet", "truth.parquet", "raw/phyphox.zip", "raw/gnss.nmea"):
+    for name in ("session.parquet", "truth.parquet", "raw/phyphox.zip", "raw/gnss.nmea", "raw/landing.markers.csv"):
         assert (tmp_path / name).read_bytes() == (FIXTURES / name).read_bytes(), name
 
 
