@@ -125,6 +125,12 @@ def table_to_bytes(table: pa.Table, meta: dict[str, Any]) -> bytes:
     return sink.getvalue().to_pybytes()
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_bytes(data: bytes, dest: str | os.PathLike[str] | BinaryIO | None) -> None:
     """Write bytes to stdout (``None``/``"-"``), a stream, or atomically to a path."""
     if dest is None or dest == "-":
@@ -138,6 +144,7 @@ def write_bytes(data: bytes, dest: str | os.PathLike[str] | BinaryIO | None) -> 
     folder = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
+        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; an output file gets the usual permissions
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.replace(tmp, path)

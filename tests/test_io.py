@@ -103,3 +103,15 @@ def test_session_unit_override_rides_on_the_field():
     table, _ = sfio.read_table(io.BytesIO(data))
     assert table.schema.field("mag_x").metadata == {b"unit": b"1"}
     assert table.schema.field("mag_y").metadata == {b"unit": b"uT"}
+
+
+def test_written_file_has_the_usual_permissions(tmp_path):
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        sfio.write_bytes(b"PAR1", tmp_path / "out.parquet")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "out.parquet").stat().st_mode) == 0o644
