@@ -151,9 +151,10 @@ class SplineFit:
     ----------
     spline : NaturalCubicSpline
     lam : numpy.ndarray, shape (d,)
-        The paper's lambda used per column (NaN when a per-interval penalty was given).
+        The paper's lambda used per column (with ``segments``: outside the segments,
+        given or chosen by GCV).
     penalty : numpy.ndarray, shape (d,)
-        ``alpha`` per column (NaN for a per-interval penalty).
+        ``alpha`` per column (with ``segments``: outside the segments).
     std : numpy.ndarray or None, shape (n, d)
         1-sigma of the fitted values at the knots, the input sigmas propagated
         through the smoother (noise only; the smoothing bias is not included).
@@ -459,9 +460,7 @@ def smoothing_spline(
             else:
                 gc, cc = _reinsch(h, y2[:, c : c + 1], wc, penalty_from_lambda(lams[c]))
             g[:, c], gam[:, c] = gc[:, 0], cc[:, 0]
-    if segments:
-        lams[:] = np.nan
-    alphas = np.array([np.nan if np.isnan(v) else penalty_from_lambda(v) for v in lams])
+    alphas = np.array([penalty_from_lambda(v) for v in lams])
     std = None
     if S is not None and not segments:
         std = np.column_stack([_propagated_std(h, W[:, c], alphas[c], S[:, c]) for c in range(d)])

@@ -179,7 +179,8 @@ def smooth_track(
         "epochs": int(k.size),
         "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
         "filled_rows": int(filled.sum()),
-        "lambda": [None if np.isnan(v) else float(v) for v in fit.lam],
+        "lambda": [float(v) for v in fit.lam],  # outside the segments when segments are given
+        "penalty": [float(v) for v in fit.penalty],  # alpha = (1 - lambda) / lambda [s^3/m with weights in 1/m]
     }
     return TrackResult(cols, fit.lam, info, warnings)
 

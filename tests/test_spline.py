@@ -101,6 +101,10 @@ def test_per_segment_lambda_is_the_stated_problem():
     # a constant per-segment lambda is the ordinary spline
     same = sp.smoothing_spline(t, y[:, 0], w, 0.7, segments=[(0.0, 100.0, 0.7)])
     np.testing.assert_allclose(same.spline(t), sp.smoothing_spline(t, y[:, 0], w, 0.7).spline(t), atol=1e-9)
+    # with lambda None the default outside the segments is the GCV choice, and it is reported
+    auto = sp.smoothing_spline(t, y[:, :2], w, None, segments=segs)
+    np.testing.assert_allclose(auto.lam, [sp.gcv_lambda(t, y[:, c], w) for c in range(2)], rtol=1e-12)
+    np.testing.assert_allclose(auto.penalty, sp.penalty_from_lambda(auto.lam), rtol=1e-12)
     # the segment with lambda 0.99 follows its data more closely than the default
     inside = (t > 5.5) & (t < 11.5)
     base = sp.smoothing_spline(t, y[:, 0], w, 0.7)

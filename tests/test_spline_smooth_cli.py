@@ -177,6 +177,8 @@ def test_options_and_usage_errors(run1):
     out = smooth(data, "--lambda", "gcv", "--segment", "20:30=0.99")
     assert np.isfinite(floats(out, "x")).sum() > 1000
     assert "std_x" not in out.column_names  # 1-sigma is not computed with per-segment lambda
+    used = sfio.get_meta(out)["provenance"][-1]["params"]["lambda_used"]  # GCV's choice outside the segment
+    assert len(used) == 3 and all(0.0 < v <= 1.0 for v in used)
     for bad in (["--lambda", "2"], ["--lambda", "abc"], ["--segment", "20-30"], ["--weighting", "x"]):
         res = run_cli(["spline-smooth", *bad], stdin=data)
         assert res.returncode == 2, bad

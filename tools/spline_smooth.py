@@ -133,7 +133,9 @@ def main(
     for w in result.warnings:
         tool.warn(w)
     info = result.info
-    lams = ", ".join("per segment" if v is None else f"{v:.6g}" for v in info["lambda"])
+    lams = ", ".join(f"{v:.8g}" for v in info["lambda"])
+    lams += " (penalty " + ", ".join(f"{v:.3g}" for v in info["penalty"]) + ")"
+    lams += " outside the --segment spans" if segments else ""
     tool.info(
         f"{info['epochs']} GNSS epochs ({info['not_fixed']} not fixed), lambda x/y/z {lams}, "
         f"{info['filled_rows']} row(s) bridged across gaps"
