@@ -733,7 +733,7 @@ def _estimate_columns(
     qn = q / np.linalg.norm(q, axis=1, keepdims=True)
     M = m_bo(q)
     v_o = np.einsum("nji,nj->ni", M, x[:, 3:6])
-    v_n = v_o @ mno.T
+    v_n = rotations.ned_to_local(v_o, inp.azimuth_deg)  # the one NED -> hill-frame rotation
     roll, pitch, yaw = rotations.euler_from_quat(qn)
     cols: dict[str, np.ndarray] = {}
     for k, a in enumerate("xyz"):
