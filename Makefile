@@ -28,12 +28,12 @@ test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 
 lint: $(STAMP)
-	$(BIN)/ruff check lib tools tests fixtures
-	$(BIN)/ruff format --check lib tools tests fixtures
+	$(BIN)/ruff check lib tools tests fixtures bench
+	$(BIN)/ruff format --check lib tools tests fixtures bench
 
 format: $(STAMP)
-	$(BIN)/ruff format lib tools tests fixtures
-	$(BIN)/ruff check --fix lib tools tests fixtures
+	$(BIN)/ruff format lib tools tests fixtures bench
+	$(BIN)/ruff check --fix lib tools tests fixtures bench
 
 fixtures: $(STAMP)
 	$(BIN)/python fixtures/make_fixtures.py

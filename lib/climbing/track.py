@@ -134,7 +134,11 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     warnings = []
     frame = meta.get("frame")
     hframe = holds.meta.get("frame")
-    if frame and hframe and (frame.get("name"), frame.get("azimuth_deg")) != (hframe.get("name"), hframe.get("azimuth_deg")):
+    if (
+        frame
+        and hframe
+        and (frame.get("name"), frame.get("azimuth_deg")) != (hframe.get("name"), hframe.get("azimuth_deg"))
+    ):
         warnings.append("the session's frame differs from the hold map's; x y z are in the hold map's frame")
 
     tr = estimate_transitions(
@@ -155,7 +159,9 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
         smooth=o.smooth,
     )
     pos, lab, prob, yaw = (
-        (pf.smooth_pos, pf.smooth_label, pf.smooth_prob, pf.smooth_yaw) if o.smooth else (pf.pos, pf.label, pf.prob, pf.yaw)
+        (pf.smooth_pos, pf.smooth_label, pf.smooth_prob, pf.smooth_yaw)
+        if o.smooth
+        else (pf.pos, pf.label, pf.prob, pf.yaw)
     )
     vel = np.full_like(tr.velocity, np.nan)
     ok = np.isfinite(yaw)

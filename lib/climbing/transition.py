@@ -151,7 +151,9 @@ class Linearization:
     @property
     def cost(self) -> float:
         """Half the sum of squared whitened residuals."""
-        return 0.5 * float((self.r_dyn**2).sum() + (self.r_mag**2).sum() + (self.r_zupt**2).sum() + self.r_prior @ self.r_prior)
+        return 0.5 * float(
+            (self.r_dyn**2).sum() + (self.r_mag**2).sum() + (self.r_zupt**2).sum() + self.r_prior @ self.r_prior
+        )
 
 
 def linearize(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
@@ -415,7 +417,7 @@ def solve(prob: Problem, st: State) -> tuple[State, Linearization, Normal, tuple
     cost = lin.cost
     lam = 1e-6
     it = 0
-    for it in range(1, p.max_iter + 1):
+    for it in range(1, p.max_iter + 1):  # noqa: B007 - the count is returned
         ne = normal_equations(prob, lin)
         while True:
             dx, db, _ = solve_step(ne, lam)

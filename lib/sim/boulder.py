@@ -329,6 +329,7 @@ def _plan(
             descent = t
         g = float(grips[k])
         impact = rng.uniform(0.004, 0.009) if (k > 0 and rng.random() < cfg.p_impact) else 0.0
+
         def roll(r: np.ndarray) -> np.ndarray:
             axis = rng.normal(size=3)
             return r @ _so3.exp(axis / np.linalg.norm(axis) * rng.uniform(0.0, cfg.grip_roll))
