@@ -80,3 +80,39 @@ def load_hill_option(hill: str | None, hill_set: Iterable[str]) -> Hill | None:
     from sportfusion.hillfile import load_hill
 
     return load_hill(hill, overrides)
+
+
+def seed_truth_options(truth_help: str = "Write the truth table (kind truth, Parquet) to this file.") -> Any:
+    """Add ``--seed N`` and ``--truth FILE`` (the command receives ``seed`` and ``truth_path``) to a simulator."""
+
+    def decorate(f: Callable[..., Any]) -> Callable[..., Any]:
+        f = click.option(
+            "--truth", "truth_path", type=click.Path(dir_okay=False, writable=True), default=None, help=truth_help
+        )(f)
+        return click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")(f)
+
+    return decorate
+
+
+def course_site_options(site: str, azimuth: float, date: str) -> Any:
+    """Add ``--site LAT,LON,H``, ``--azimuth DEG`` and ``--date ISO`` (a course's start, fall line and time)
+    with the given defaults; the command receives ``site``, ``azimuth`` and ``date``."""
+
+    def decorate(f: Callable[..., Any]) -> Callable[..., Any]:
+        f = click.option("--date", default=date, show_default=True, help="Start time of the session [UTC ISO-8601].")(f)
+        f = click.option(
+            "--azimuth",
+            default=azimuth,
+            show_default=True,
+            type=float,
+            help="Fall-line azimuth = course-frame x axis, clockwise from north [deg].",
+        )(f)
+        return click.option(
+            "--site",
+            default=site,
+            show_default=True,
+            metavar="LAT,LON,H",
+            help="Start of the course [deg, deg, m ellipsoidal].",
+        )(f)
+
+    return decorate

@@ -8,6 +8,7 @@ from sportfusion import io as sfio
 from sportfusion import meta as sfmeta
 from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
 from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import seed_truth_options
 
 
 @tool(
@@ -18,13 +19,8 @@ from sportfusion.tools._cli import Tool, tool
   simulate boulder --seed 2 --imu-rate 60 --route-holds 14 --holds holds.parquet -o trial.parquet
   simulate boulder --seed 3 --holds holds.parquet | detect-events --kind grips | pf-holds --holds holds.parquet > est.parquet""",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
-@click.option(
-    "--truth",
-    "truth_path",
-    type=click.Path(dir_okay=False, writable=True),
-    default=None,
-    help="Write the truth table (kind truth: true_x.. [m], true_vx.. [m/s], true_q0..3, true_grip, true_hold).",
+@seed_truth_options(
+    "Write the truth table (kind truth: true_x.. [m], true_vx.. [m/s], true_q0..3, true_grip, true_hold)."
 )
 @click.option(
     "--holds",

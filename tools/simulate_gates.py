@@ -8,7 +8,7 @@ from sportfusion import io as sfio
 from sportfusion import meta as sfmeta
 from sportfusion.sim.gates import GatesConfig, simulate_gates
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import parse_floats
+from sportfusion.tools._options import course_site_options, parse_floats, seed_truth_options
 
 
 @tool(
@@ -19,14 +19,7 @@ from sportfusion.tools._options import parse_floats
   simulate gates --seed 2 --downhill --wgs84 --gates survey.parquet -o run.parquet
   simulate gates --seed 3 --gates survey.parquet | detect-events --kind gates | gate-anchor --gates survey.parquet""",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
-@click.option(
-    "--truth",
-    "truth_path",
-    type=click.Path(dir_okay=False, writable=True),
-    default=None,
-    help="Write the truth table (kind truth, Parquet) to this file.",
-)
+@seed_truth_options()
 @click.option(
     "--gates",
     "gates_path",
@@ -56,23 +49,7 @@ from sportfusion.tools._options import parse_floats
     type=click.FloatRange(1, 60),
     help="Static posture at start and finish [s].",
 )
-@click.option(
-    "--site",
-    default="46.8345,9.2103,1600",
-    show_default=True,
-    metavar="LAT,LON,H",
-    help="Start of the course [deg, deg, m ellipsoidal].",
-)
-@click.option(
-    "--azimuth",
-    default=20.0,
-    show_default=True,
-    type=float,
-    help="Fall-line azimuth = course-frame x axis, clockwise from north [deg].",
-)
-@click.option(
-    "--date", default="2026-01-20T10:00:00Z", show_default=True, help="Start time of the session [UTC ISO-8601]."
-)
+@course_site_options("46.8345,9.2103,1600", 20.0, "2026-01-20T10:00:00Z")
 def main(
     tool: Tool,
     seed: int,

@@ -8,7 +8,7 @@ from sportfusion import io as sfio
 from sportfusion import meta as sfmeta
 from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import parse_floats
+from sportfusion.tools._options import course_site_options, parse_floats, seed_truth_options
 
 
 @tool(
@@ -19,14 +19,7 @@ from sportfusion.tools._options import parse_floats
   simulate skirace --seed 2 --gnss-rate 20 --imu-rate 100 --floats 5 -o run.parquet
   simulate skirace --seed 3 --turn-period 2.8 --turn-acc 13 | spline-smooth | dmc-attitude > est.parquet""",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
-@click.option(
-    "--truth",
-    "truth_path",
-    type=click.Path(dir_okay=False, writable=True),
-    default=None,
-    help="Write the truth table (kind truth, Parquet) to this file.",
-)
+@seed_truth_options()
 @click.option(
     "--duration",
     default=60.0,
@@ -51,23 +44,7 @@ from sportfusion.tools._options import parse_floats
     type=click.FloatRange(30, 100),
     help="Accelerometer + magnetometer rate [Hz].",
 )
-@click.option(
-    "--site",
-    default="46.4975,9.8365,2200",
-    show_default=True,
-    metavar="LAT,LON,H",
-    help="Start of the course [deg, deg, m ellipsoidal].",
-)
-@click.option(
-    "--azimuth",
-    default=160.0,
-    show_default=True,
-    type=float,
-    help="Fall-line azimuth = course-frame x axis, clockwise from north [deg].",
-)
-@click.option(
-    "--date", default="2026-02-10T10:00:00Z", show_default=True, help="Start time of the session [UTC ISO-8601]."
-)
+@course_site_options("46.4975,9.8365,2200", 160.0, "2026-02-10T10:00:00Z")
 @click.option(
     "--turn-period",
     default=4.5,
