@@ -27,8 +27,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.ndimage import median_filter
-from scipy.signal import find_peaks
 
 from sportfusion import schema
 from sportfusion.errors import InputError
@@ -102,6 +100,8 @@ def normalised_intensity(mag: np.ndarray, rate: float, background: float) -> np.
     """``|B|`` divided by its moving median over ``background`` seconds (``rate`` [Hz])."""
     b = np.linalg.norm(mag, axis=1)
     size = max(3, int(round(background * rate)) | 1)
+    from scipy.ndimage import median_filter  # here: scipy.signal/ndimage cost detect-events 0.3 s at start-up
+
     bg = median_filter(b, size=size, mode="nearest")
     return b / bg
 
@@ -139,6 +139,8 @@ def detect_gates(
         return det
     rate = 1.0 / float(np.median(np.diff(t_mag)))
     b = normalised_intensity(mag, rate, p.background)
+    from scipy.signal import find_peaks
+
     peaks, _ = find_peaks(b - 1.0, height=p.threshold, distance=max(1, int(p.min_separation * rate)))
     for k in peaks:
         bp = refine_peak(b, int(k))
