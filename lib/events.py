@@ -140,7 +140,7 @@ def speed_at(t: np.ndarray, t_gnss: np.ndarray, speed: np.ndarray, max_gap: floa
     return out
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """Start and end (exclusive) indices of the runs of True."""
     d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
@@ -168,7 +168,7 @@ def detect_jumps(
     p = params or JumpParams()
     det = JumpDetection()
     fast = np.isfinite(speed) & (speed > p.min_speed) & np.isfinite(acc_norm)
-    for i0, i1 in _runs(fast):
+    for i0, i1 in true_runs(fast):
         det.windows += 1
         tw, aw = t[i0:i1], acc_norm[i0:i1]
         win = (float(tw[0]), float(tw[-1]))

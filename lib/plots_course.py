@@ -14,6 +14,7 @@ import pyarrow as pa
 
 from sportfusion import schema
 from sportfusion.errors import InputError
+from sportfusion.events import true_runs
 from sportfusion.plots import _col, _new_figure
 
 if TYPE_CHECKING:
@@ -36,19 +37,7 @@ def float_spans(t: np.ndarray, fix: np.ndarray) -> list[tuple[float, float]]:
     fix : numpy.ndarray
         GGA fix-quality codes at those epochs.
     """
-    spans: list[tuple[float, float]] = []
-    is_float = fix == FLOAT_FIX
-    i = 0
-    while i < len(t):
-        if is_float[i]:
-            j = i
-            while j + 1 < len(t) and is_float[j + 1]:
-                j += 1
-            spans.append((float(t[i]), float(t[j])))
-            i = j + 1
-        else:
-            i += 1
-    return spans
+    return [(float(t[i0]), float(t[i1 - 1])) for i0, i1 in true_runs(np.asarray(fix) == FLOAT_FIX)]
 
 
 def _shade(ax: Axes, spans: list[tuple[float, float]]) -> None:

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
+from sportfusion import rotations, schema
 from sportfusion.errors import InputError
 from sportfusion.hill import HillProfile
 from sportfusion.plots import _col, _draw_profile, _new_figure
@@ -213,12 +213,6 @@ def mag_figure(table: pa.Table, title: str = "", width: float = 11.0) -> Figure:
     return fig
 
 
-def _rot_angle(q: np.ndarray, qt: np.ndarray) -> np.ndarray:
-    """Rotation angle [rad] between two quaternion histories (n, 4), sign-invariant."""
-    d = np.abs(np.sum(q * qt, axis=1)) / (np.linalg.norm(q, axis=1) * np.linalg.norm(qt, axis=1))
-    return 2.0 * np.arccos(np.clip(d, -1.0, 1.0))
-
-
 def errors_figure(table: pa.Table, truth: pa.Table, title: str = "", width: float = 11.0) -> Figure:
     """Estimate minus truth against time with the estimate's 1-sigma band (the paper's Figure 6).
 
@@ -276,7 +270,7 @@ def errors_figure(table: pa.Table, truth: pa.Table, title: str = "", width: floa
         ax = axes[-1]
         qe = np.column_stack([p[0] for p in q])
         qt = np.column_stack([p[1] for p in q])
-        ang = np.degrees(_rot_angle(qe, qt))
+        ang = np.degrees(rotations.quat_angle(qe, qt))
         ok = np.isfinite(ang)
         ax.plot(
             ts[ok],

@@ -213,6 +213,17 @@ def to_ned(q: np.ndarray, v_body: np.ndarray) -> np.ndarray:
     return np.einsum("...ji,...j->...i", dcm_from_quat(q), np.asarray(v_body, dtype=float))
 
 
+def skew(v: np.ndarray) -> np.ndarray:
+    """Skew-symmetric (cross-product) matrices ``[v]x`` of vectors ``v`` (..., 3) -> (..., 3, 3):
+    ``skew(a) @ b == cross(a, b)``."""
+    v = np.asarray(v, dtype=np.float64)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
 def quat_angle(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Rotation angle [rad] between two attitudes, in [0, pi] (sign of ``q`` ignored).
 

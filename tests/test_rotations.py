@@ -105,3 +105,12 @@ def test_local_ned_frame(az):
     np.testing.assert_allclose(y_ned, [np.cos(np.radians(az + 90)), np.sin(np.radians(az + 90)), 0.0], atol=1e-15)
     v = RNG.standard_normal((10, 3))
     np.testing.assert_allclose(R.ned_to_local(R.local_to_ned(v, az), az), v, atol=1e-14)
+
+
+def test_skew_is_the_cross_product():
+    from sportfusion.rotations import skew
+
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=(7, 3)), rng.normal(size=(7, 3))
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", skew(a), b), np.cross(a, b), atol=1e-14)
+    np.testing.assert_allclose(skew(a[0]) @ b[0], np.cross(a[0], b[0]), atol=1e-14)

@@ -11,17 +11,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from sportfusion.rotations import skew as hat
+
 _SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
-
-
-def hat(v: np.ndarray) -> np.ndarray:
-    """Skew-symmetric matrices ``[v]x`` of vectors ``v`` (..., 3) -> (..., 3, 3)."""
-    v = np.asarray(v, dtype=np.float64)
-    out = np.zeros(v.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
 
 
 def exp(phi: np.ndarray) -> np.ndarray:

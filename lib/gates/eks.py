@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.kalman import Measurement, SmootherResult, ekf_rts
+from sportfusion.rotations import skew
 
 N_STATES = 15
 P_, V_, A_, O_, E_ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
@@ -68,10 +69,6 @@ class EKSParams:
     sigma_zupt: float = 0.02
     sigma_eps0: tuple[float, float, float] = (0.01, 0.01, 0.05)
     sigma_offset0: float = 5.0
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def transition(dt: float, p: EKSParams) -> tuple[np.ndarray, np.ndarray]:
@@ -163,8 +160,8 @@ def run_eks(
         u = a - gv
         h = a + np.cross(u, eps)
         H = np.zeros((3, N_STATES))
-        H[:, A_] = np.eye(3) - _skew(eps)
-        H[:, E_] = _skew(u)
+        H[:, A_] = np.eye(3) - skew(eps)
+        H[:, E_] = skew(u)
         out = [Measurement(acc[k] - h, H, R_acc, "acc")]
         if zupt[k]:
             out.append(Measurement(-x[V_], H_zupt, R_zupt, "zupt"))

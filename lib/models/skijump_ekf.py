@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from sportfusion.models.skijump_kinematics import m_bo
+from sportfusion.rotations import skew
 
 __all__ = [
     "N",
@@ -74,10 +75,6 @@ STATE = (
 )
 I_R, I_V, I_Q = slice(0, 3), slice(3, 6), slice(6, 10)
 I_BG, I_BA, I_BM, I_SM = slice(10, 13), slice(13, 16), slice(16, 19), slice(19, 22)
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def dm_dq(q: np.ndarray) -> np.ndarray:
@@ -148,9 +145,9 @@ def jac_a(x: np.ndarray, u: np.ndarray, g0: float, m_no: np.ndarray) -> np.ndarr
     A = np.zeros((N, N))
     A[0:3, 3:6] = m_no @ m.T
     A[0:3, 6:10] = m_no @ np.einsum("kji,j->ik", dm, v)  # d(M^T v)/dq_k = dM_k^T v
-    A[3:6, 3:6] = -_skew(w)
+    A[3:6, 3:6] = -skew(w)
     A[3:6, 6:10] = g0 * dm[:, :, 2].T
-    A[3:6, 10:13] = -_skew(v)  # d(-w x v)/dw = [v]x, dw/db = -I
+    A[3:6, 10:13] = -skew(v)  # d(-w x v)/dw = [v]x, dw/db = -I
     A[3:6, 13:16] = -np.eye(3)
     A[6:10, 6:10] = 0.5 * _omega(w)
     A[6:10, 10:13] = -0.5 * _xi(q)
@@ -160,7 +157,7 @@ def jac_a(x: np.ndarray, u: np.ndarray, g0: float, m_no: np.ndarray) -> np.ndarr
 def jac_f(x: np.ndarray) -> np.ndarray:
     """``F = df_aug/dw`` (22, 6) for ``w = [w_gyro, w_acc]`` (they enter like the biases)."""
     F = np.zeros((N, 6))
-    F[3:6, 0:3] = -_skew(x[3:6])
+    F[3:6, 0:3] = -skew(x[3:6])
     F[3:6, 3:6] = -np.eye(3)
     F[6:10, 0:3] = -0.5 * _xi(x[6:10])
     return F

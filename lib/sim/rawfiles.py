@@ -16,6 +16,7 @@ from functools import reduce
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 
 PHYPHOX_SETS = {
     "Accelerometer": (
@@ -199,7 +200,11 @@ def write_nmea(
 
 
 def write_session_raw(
-    table: object, epoch_utc: float, folder: str | Path, geoid_sep: float = 47.0, device: str = "sportfusion simulated"
+    table: pa.Table,
+    epoch_utc: float,
+    folder: str | Path,
+    geoid_sep: float = 47.0,
+    device: str = "sportfusion simulated",
 ) -> list[Path]:
     """Write a simulated session table as the raw files of its devices.
 
@@ -225,9 +230,6 @@ def write_session_raw(
     list of Path
         The files written.
     """
-    import pyarrow as pa
-
-    assert isinstance(table, pa.Table)
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     t = table.column("t").to_numpy()
