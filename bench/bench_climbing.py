@@ -41,9 +41,9 @@ SEED0 = 1000
 def _pipeline(seed: int, duration: float | None = None, imu_rate: float = 100.0) -> tuple:
     from sportfusion.climbing.grips import grip_columns
     from sportfusion.climbing.holds import validate
+    from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
     from sportfusion.climbing.track import track_holds
-    from sportfusion.session import with_columns
-    from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+    from sportfusion.core.session import with_columns
 
     sim = simulate_boulder(BoulderConfig(seed=seed, duration=duration, imu_rate=imu_rate))
     holds = validate(sim.holds, sim.holds_meta)
@@ -58,8 +58,8 @@ def _pipeline(seed: int, duration: float | None = None, imu_rate: float = 100.0)
 
 
 def one(seed: int) -> dict:
-    from sportfusion import schema
     from sportfusion.climbing.transition import integrate
+    from sportfusion.core import schema
 
     sim, cols, tr, _ = _pipeline(seed)
     rows = tr.rows
@@ -142,11 +142,11 @@ def report(rows: list[dict]) -> None:
 
 
 def speed() -> None:
-    from sportfusion import schema
     from sportfusion.climbing.grips import grip_columns
     from sportfusion.climbing.holds import validate
     from sportfusion.climbing.particles import run_particle_filter
     from sportfusion.climbing.transition import estimate_transitions
+    from sportfusion.core import schema
 
     sim, cols, tr, (t_grip, t_track) = _pipeline(SEED0 + 7, duration=60.0, imu_rate=100.0)
     n = int(tr.rows.sum())

@@ -1,6 +1,6 @@
 """Benchmark compare-runs: per-gate figures recovered on two simulated runs, and the time it takes.
 
-Runs of :mod:`sportfusion.sim.gated_runs` (a 300 m course, 12 gates, run B on a wider line and
+Runs of :mod:`sportfusion.skirace.sim_runs` (a 300 m course, 12 gates, run B on a wider line and
 delayed by a known amount per section) are compared in four set-ups: crossings from gate events or
 from the closest approach to the surveyed gates, with exact velocities at 20 Hz or positions only
 at 10 Hz; then 10 Hz RTK positions with 2 cm / 3 cm noise, smoothed by spline-smooth (GCV), over
@@ -22,10 +22,10 @@ import time
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import io as sfio
-from sportfusion.compare import compare_tables
-from sportfusion.sim.gated_runs import SECTION_DT, gates_table, run_table, truth
-from sportfusion.spline_track import smooth_track
+from sportfusion.core import io as sfio
+from sportfusion.skirace.compare import compare_tables
+from sportfusion.skirace.sim_runs import SECTION_DT, gates_table, run_table, truth
+from sportfusion.skirace.track import smooth_track
 
 
 def load(data: bytes) -> tuple[pa.Table, dict]:

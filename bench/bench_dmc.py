@@ -18,12 +18,13 @@ import warnings
 
 import numpy as np
 
-from sportfusion.attitude import davenport, dmc_attitude, quest, reference_specific_force
-from sportfusion.dmc import dmc_session
-from sportfusion.rotations import quat_angle, quat_normalize, to_body
-from sportfusion.schema import floats
-from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
-from sportfusion.spline_track import smooth_track
+from sportfusion.core.rotations import quat_angle, quat_normalize, to_body
+from sportfusion.core.schema import floats
+from sportfusion.estimators.quest import davenport, quest
+from sportfusion.skirace.attitude import dmc_attitude, reference_specific_force
+from sportfusion.skirace.dmc import dmc_session
+from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
+from sportfusion.skirace.track import smooth_track
 
 N = 1_000_000
 N_AHRS = 3000

@@ -32,9 +32,9 @@ TOL = 0.03  # [s]
 
 
 def one(job: tuple[str, int]) -> dict:
-    from sportfusion.events import detect_jump_table
-    from sportfusion.hillfile import load_hill
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.events import detect_jump_table
+    from sportfusion.skijump.hillfile import load_hill
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     name, seed = job
     hill = load_hill(name, HILLS[name])

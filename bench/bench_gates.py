@@ -88,11 +88,11 @@ def _frame_errors(pos, vel, tp, tv):
 
 def _one(args: tuple) -> dict:
     seed, rate, variants = args
+    from sportfusion.core.gravity import normal_gravity
+    from sportfusion.core.schema import floats
     from sportfusion.gates.crossings import detect_gate_table
     from sportfusion.gates.pipeline import GateAnchorParams, gate_anchor_arrays
-    from sportfusion.gravity import normal_gravity
-    from sportfusion.schema import floats
-    from sportfusion.sim.gates import GatesConfig, simulate_gates
+    from sportfusion.gates.sim import GatesConfig, simulate_gates
 
     cfg = GatesConfig(seed=seed)
     s = simulate_gates(cfg)

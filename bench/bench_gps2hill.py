@@ -13,8 +13,8 @@ import time
 import numpy as np
 import pymap3d
 
-from sportfusion.frames import geodetic_to_local, local_to_geodetic
-from sportfusion.hillfile import load_hill
+from sportfusion.core.frames import geodetic_to_local, local_to_geodetic
+from sportfusion.skijump.hillfile import load_hill
 
 hill = load_hill("oberstdorf_hs106")
 origin, psi = hill.frame().origin, hill.frame().azimuth_deg

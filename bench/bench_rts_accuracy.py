@@ -50,14 +50,15 @@ def _rms(e: np.ndarray) -> float:
 def one(job: tuple[int, tuple[str, ...]]) -> dict:
     import pyarrow as pa
 
+    from sportfusion.core.frames import gnss_local_columns
+    from sportfusion.core.schema import floats
     from sportfusion.evaluate import errors
-    from sportfusion.events import detect_jump_table
-    from sportfusion.frames import gnss_local_columns
-    from sportfusion.hillfile import load_hill
-    from sportfusion.jump_metrics import jump_metrics
-    from sportfusion.rts_skijump import SmootherConfig, rts_smooth_table
-    from sportfusion.schema import floats
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.events import detect_jump_table
+    from sportfusion.skijump.hillfile import load_hill
+    from sportfusion.skijump.metrics import jump_metrics
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.smoother import rts_smooth_table
+    from sportfusion.skijump.smoother_inputs import SmootherConfig
 
     seed, variants = job
     hill = load_hill("oberstdorf_hs106")

@@ -42,9 +42,9 @@ TARGET_RATIO = 20.0
 
 
 def build(rest_after: float):  # noqa: ANN201
-    from sportfusion.hillfile import load_hill
-    from sportfusion.rts_skijump import SmootherConfig, session_inputs
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.hillfile import load_hill
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.smoother_inputs import SmootherConfig, session_inputs
 
     hill = load_hill("oberstdorf_hs106")
     sim = simulate_skijump(hill, SkiJumpConfig(seed=0, rest_after=rest_after))
@@ -58,9 +58,10 @@ def time_filterpy(inp, hill, cfg, n: int) -> float:  # noqa: ANN001
     """filterpy EKF + RTS over the first n steps of the same model [s]."""
     from filterpy.kalman import ExtendedKalmanFilter, KalmanFilter
 
-    from sportfusion.models import skijump_ekf as mdl
-    from sportfusion.models.skijump_kinematics import m_no
-    from sportfusion.rts_skijump import ProfileTable, _slice, initial_state
+    from sportfusion.skijump import model as mdl
+    from sportfusion.skijump.kinematics import m_no
+    from sportfusion.skijump.smoother import initial_state
+    from sportfusion.skijump.smoother_inputs import ProfileTable, _slice
 
     seg = _slice(inp, 0, n)
     x0, P0 = initial_state(seg, cfg)
@@ -133,7 +134,7 @@ def cold_compile_seconds() -> float:
         t0 = time.perf_counter()
         prog = (
             "import numpy as np, time\n"
-            "from sportfusion.kalman.skijump_fast import ski_ekf_rts, N\n"
+            "from sportfusion.skijump.smoother_fast import ski_ekf_rts, N\n"
             "n=3; z=np.zeros; e=np.zeros(2)\n"
             "t=np.arange(n)*0.01; u=z((n,6)); pos=np.full((n,3),np.nan); pos[0]=0\n"
             "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
@@ -156,12 +157,13 @@ def main() -> None:
     hill, sim, inp, cfg, tt = build(rest)
     n = inp.t.size
     print(f"session: {n} IMU steps ({inp.t[-1] - inp.t[0]:.0f} s at 100 Hz), built in {time.perf_counter() - t0:.1f} s")
-    from sportfusion import rts_skijump as R
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
 
     t0 = time.perf_counter()
-    from sportfusion.kalman import skijump_fast  # noqa: F401
+    from sportfusion.skijump import smoother_fast as skijump_fast  # noqa: F401
 
-    small = R._slice(inp, 0, 50)
+    small = RI._slice(inp, 0, 50)
     R.smooth_inputs(small, hill, cfg, engine="numba")
     load = time.perf_counter() - t0
     cold = None if a.no_cold else cold_compile_seconds()
@@ -176,7 +178,7 @@ def main() -> None:
     R.rts_smooth_table(sim.session, sim.session_meta, hill, takeoff=[tt["takeoff"]], touchdown=[tt["touchdown"]])
     table_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    R.smooth_inputs(R._slice(inp, 0, sl), hill, cfg, engine="numpy")
+    R.smooth_inputs(RI._slice(inp, 0, sl), hill, cfg, engine="numpy")
     numpy_s = (time.perf_counter() - t0) * n / sl
     try:
         c0 = time.process_time()

@@ -2,7 +2,7 @@
 
 For every shipped hill and a few seeds, ``simulate_skijump`` makes a jump and
 the noise-free truth IMU (``true_gyr_* true_acc_*``, 100 Hz) is integrated with
-the smoother's own scheme (:func:`sportfusion.models.skijump_kinematics.propagate`:
+the smoother's own scheme (:func:`sportfusion.skijump.kinematics.propagate`:
 RK4 with linearly interpolated inputs, eqs 44-46 with the errata sign) from the
 true initial state.  Printed per jump: the largest position drift over the whole
 session (gate, in-run, flight, landing, out-run, stop, rest) and attitude drift,
@@ -31,10 +31,10 @@ SITE = {"lat": "47.0", "lon": "11.0", "height": "1000", "azimuth_deg": "45"}
 
 
 def one(job: tuple[str, int]) -> dict:
-    from sportfusion import rotations, schema
-    from sportfusion.hillfile import load_hill
-    from sportfusion.models import skijump_kinematics as kin
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.core import rotations, schema
+    from sportfusion.skijump import kinematics as kin
+    from sportfusion.skijump.hillfile import load_hill
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     name, seed = job
     hill = load_hill(name)
@@ -70,7 +70,7 @@ def one(job: tuple[str, int]) -> dict:
 
 
 def main() -> None:
-    from sportfusion.hillfile import shipped_hills
+    from sportfusion.skijump.hillfile import shipped_hills
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3, help="seeds per hill [count]")

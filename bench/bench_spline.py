@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from sportfusion.schema import floats
-from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
-from sportfusion.spline import ambiguity_weights, epoch_weights, penalty_from_lambda, smoothing_spline
+from sportfusion.core.schema import floats
+from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, penalty_from_lambda, smoothing_spline
+from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 
 N = 1_000_000
 LAM = 0.9

@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
 
 HILL = "oberstdorf_hs106"
 #: Distances of the paper's Table 7 video readings [m], one simulated jump each.

@@ -28,12 +28,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
-from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
-from sportfusion.video.camera import Slope
-from sportfusion.video.measure import measure_video
-from sportfusion.video.render import RenderOptions, make_camera, render_landing, trajectory_from_truth
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
+from sportfusion.skijump.video.camera import Slope
+from sportfusion.skijump.video.measure import measure_video
+from sportfusion.skijump.video.render import RenderOptions, make_camera, render_landing, trajectory_from_truth
 
 N_CASES = 20
 HILL = "oberstdorf_hs106"

@@ -6,6 +6,6 @@ command-line tools in :mod:`sportfusion.tools` are thin wrappers around it.
 
 __version__ = "0.1.0"
 
-from sportfusion.errors import InputError  # noqa: E402
+from sportfusion.core.errors import InputError  # noqa: E402
 
 __all__ = ["InputError", "__version__"]

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 
 __all__ = ["read_config", "session_row", "collect", "summary_table", "format_summary", "main"]
 

@@ -11,8 +11,8 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent

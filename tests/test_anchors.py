@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
 from sportfusion.gates.anchors import (
     match_anchors,
     principal_azimuth,
@@ -16,7 +16,7 @@ from sportfusion.gates.anchors import (
     survey_sides,
     turn_numbers,
 )
-from sportfusion.sim.gates import GatesConfig, simulate_gates
+from sportfusion.gates.sim import GatesConfig, simulate_gates
 
 
 def _course(rng, n=30):

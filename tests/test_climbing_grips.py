@@ -8,10 +8,10 @@ import pytest
 from click.testing import CliRunner
 from conftest import session_bytes
 
-from sportfusion import io as sfio
-from sportfusion import schema
 from sportfusion.climbing.grips import GripParams, detect_grips, grip_columns, range_violations
-from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
 from sportfusion.tools.detect_events import main
 
 OFF = dict(mean_threshold=np.inf, acc_threshold=np.inf)

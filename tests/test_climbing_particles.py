@@ -8,6 +8,7 @@ from scipy.stats import multivariate_normal
 
 from sportfusion.climbing import particles as pf
 from sportfusion.climbing.particles import HoldModel, PFParams, grip_log_likelihood, hold_log_likelihood
+from sportfusion.estimators.particles import systematic_resample
 
 MODEL = HoldModel(radius=0.1, sigma=0.05, elsewhere_sigmas=3.0)
 UP = np.array([0.0, 0.0, 1.0])
@@ -43,7 +44,7 @@ def test_systematic_resampling_keeps_the_expected_counts():
     w = rng.random(50) ** 3
     w /= w.sum()
     for u0 in (0.0, 0.37, 0.999):
-        counts = np.bincount(pf._systematic(w, u0), minlength=50)
+        counts = np.bincount(systematic_resample(w, u0), minlength=50)
         assert counts.sum() == 50
         assert (counts >= np.floor(50 * w) - 1e-9).all() and (counts <= np.ceil(50 * w) + 1e-9).all()
 

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sportfusion import schema
 from sportfusion.climbing import _so3
 from sportfusion.climbing import transition as tr
 from sportfusion.climbing.grips import grip_columns
 from sportfusion.climbing.holds import validate
-from sportfusion.errors import InputError
-from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 
 G = np.array([0.0, 0.0, -9.81])
 M_W = np.array([0.3, 0.1, -0.9])

@@ -1,6 +1,6 @@
 """compare-runs: two simulated runs of one course with known section time offsets; plot compare; bad input.
 
-The runs come from :mod:`sportfusion.sim.gated_runs`: sinusoidal lines down a slope, gates at the apexes,
+The runs come from :mod:`sportfusion.skirace.sim_runs`: sinusoidal lines down a slope, gates at the apexes,
 run B on a wider line and delayed by a known amount per section.  Truth comes from the closed-form
 timing law and scipy quad arc lengths, independent of the library's Hermite/Gauss-Legendre code.
 """
@@ -14,18 +14,9 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
-from sportfusion.sim.gated_runs import (
-    GATE_IDS,
-    GATES_X,
-    SECTION_DT,
-    arc,
-    gates_table,
-    run_table,
-    speed,
-    truth,
-)
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
+from sportfusion.skirace.sim_runs import GATE_IDS, GATES_X, SECTION_DT, arc, gates_table, run_table, speed, truth
 
 
 @pytest.fixture(scope="module")
@@ -209,8 +200,8 @@ def test_noisy_rtk_tracks_smoothed_then_compared(files):
     Times still hold to 0.01 s (measured 2.5-4.5 ms over seeds 7, 8).  The noise the spline leaves
     adds path length, differently per run: the distance differences over the 300 m course err
     3-5 cm (0.05 m is the noise-free target, checked above), so 0.1 m here; speeds 0.13-0.17 m/s."""
-    from sportfusion.compare import compare_tables
-    from sportfusion.spline_track import smooth_track
+    from sportfusion.skirace.compare import compare_tables
+    from sportfusion.skirace.track import smooth_track
 
     rng = np.random.default_rng(7)
     gates = sfio.read_table(files["gates"], kind="gates")
@@ -274,9 +265,9 @@ def test_speed_profile_along_the_course(files, tmp_path):
 
 def test_gates_given_as_lat_lon_h(files):
     """A gates table in WGS84 is converted into the runs' frame: the same crossings as with x y."""
-    from sportfusion.compare import compare_tables
-    from sportfusion.frames import Frame
-    from sportfusion.sim.gated_runs import FRAME
+    from sportfusion.core.frames import Frame
+    from sportfusion.skirace.compare import compare_tables
+    from sportfusion.skirace.sim_runs import FRAME
 
     gates, gmeta = sfio.read_table(files["gates"], kind="gates")
     lat, lon, h = Frame.from_meta(FRAME).to_geodetic(*(gates.column(c).to_numpy() for c in "xyz"))

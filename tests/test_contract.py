@@ -12,8 +12,8 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import console_scripts, run_cli, session_bytes
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
 
 SCRIPTS = console_scripts()
 #: Tools that accept any table (no required columns beyond the table kind's).

@@ -7,11 +7,11 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion.magfield import inclination_declination, reference_field
-from sportfusion.rotations import quat_angle
-from sportfusion.schema import floats
-from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
+from sportfusion.core import io as sfio
+from sportfusion.core.magfield import inclination_declination, reference_field
+from sportfusion.core.rotations import quat_angle
+from sportfusion.core.schema import floats
+from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 
 
 def cli(args: list[str], data: bytes) -> tuple[pa.Table, str]:
@@ -136,7 +136,7 @@ def test_site_is_required_for_the_model(sim):
 
 
 def test_magnetometer_on_other_rows_is_interpolated(sim):
-    from sportfusion.dmc import dmc_session
+    from sportfusion.skirace.dmc import dmc_session
 
     s, _ = sim
     t = floats(s.session, "t")

@@ -10,9 +10,9 @@ import pytest
 from conftest import ROOT, run_cli
 from scipy.spatial.transform import Rotation
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import rotations, schema
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import rotations, schema
 from sportfusion.evaluate import evaluate, format_text, phases, summary_table
 
 FIX = ROOT / "fixtures" / "skijump"
@@ -175,7 +175,7 @@ def test_cli(tmp_path, truth):
 def test_gnss_baseline(truth):
     session, smeta = sfio.read_table(FIX / "session.parquet")
     table, tmeta = truth
-    from sportfusion.frames import Frame
+    from sportfusion.core.frames import Frame
 
     frame = Frame.from_meta(smeta["frame"])
     g = ~np.isnan(schema.floats(session, "lat"))

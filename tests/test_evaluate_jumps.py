@@ -12,10 +12,10 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 from sportfusion.evaluate import compare_jump_lengths, format_jump_lengths, jump_length_table
 
 #: skijump Table 7.

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from conftest import run_cli, session_bytes
 
-from sportfusion import io as sfio
+from sportfusion.core import io as sfio
 from sportfusion.gates.crossings import detect_gate_table, read_crossings
 from sportfusion.gates.magnet import default_calibration, fit_calibration, refine_peak
-from sportfusion.sim.gates import GatesConfig, simulate_gates
+from sportfusion.gates.sim import GatesConfig, simulate_gates
 
 
 @pytest.fixture(scope="module")

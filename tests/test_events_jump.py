@@ -7,17 +7,11 @@ import pyarrow as pa
 import pytest
 from conftest import ROOT
 
-from sportfusion import io as sfio
-from sportfusion import schema
-from sportfusion.errors import InputError
-from sportfusion.events import (
-    JumpParams,
-    detect_jump_table,
-    detect_jumps,
-    jump_events,
-    set_events,
-    speed_at,
-)
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.events import set_events
+from sportfusion.skijump.events import JUMP_EVENTS, JumpParams, detect_jump_table, detect_jumps, jump_events, speed_at
 
 FIX = ROOT / "fixtures" / "skijump"
 
@@ -71,14 +65,14 @@ def test_back_to_back_jumps_in_one_continuous_recording(jump):
     for k, j in enumerate(det.jumps):
         assert abs(j.takeoff - (times["takeoff"] + k * span)) <= 0.03 + 1e-9
         assert abs(j.touchdown - (times["touchdown"] + k * span)) <= 0.03 + 1e-9
-    out = set_events(both, jump_events(det))
+    out = set_events(both, jump_events(det), replace=JUMP_EVENTS)
     assert [n for n in out.column("event").to_pylist() if n] == ["takeoff", "touchdown"] * 2
 
 
 def test_fast_run_without_a_jump_gets_no_events():
     # a giant-slalom-like run: fast for 20 s, turns up to 8 m/s^2 and terrain rollers, but never airborne
-    from sportfusion.events import detect_jump_events
-    from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
+    from sportfusion.skijump.events import detect_jump_events
+    from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 
     sim = simulate_skirace(SkiRaceConfig(seed=3, jumps=0, duration=20.0))
     out, summary, message = detect_jump_events(sim.session)
@@ -148,7 +142,7 @@ def test_speed_interpolation_respects_gaps():
 def test_events_written_and_replaced(jump):
     session, _, _, _ = jump
     det = detect_jump_table(session)
-    out = set_events(session, jump_events(det))
+    out = set_events(session, jump_events(det), replace=JUMP_EVENTS)
     names = [n for n in out.column("event").to_pylist() if n]
     assert names == ["takeoff", "touchdown"]
     t = schema.floats(out, "t")
@@ -158,7 +152,7 @@ def test_events_written_and_replaced(jump):
     col = out.column("event").to_pylist()
     col[5] = "gate"
     out = out.set_column(out.column_names.index("event"), "event", pa.array(col, pa.string()))
-    again = set_events(out, [("takeoff", 1.0)])
+    again = set_events(out, [("takeoff", 1.0)], replace=JUMP_EVENTS)
     assert [n for n in again.column("event").to_pylist() if n] == ["gate", "takeoff"]
     with pytest.raises(InputError, match="falls on the row"):
         set_events(again, [("touchdown", float(t[5]))], replace=())
@@ -173,7 +167,7 @@ def test_missing_columns_are_input_errors(jump):
 
 
 def test_table_level_detection(jump):
-    from sportfusion.events import detect_jump_events
+    from sportfusion.skijump.events import detect_jump_events
 
     session, _, _, _ = jump
     out, summary, message = detect_jump_events(session)

@@ -9,9 +9,9 @@ import pyarrow as pa
 import pymap3d
 import pytest
 
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
-from sportfusion.frames import (
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.errors import InputError
+from sportfusion.core.frames import (
     Frame,
     geodetic_to_local,
     geodetic_to_ned,

@@ -9,14 +9,14 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.schema import floats
+from sportfusion.core.session import with_columns
 from sportfusion.gates.crossings import detect_gate_table, gate_columns
 from sportfusion.gates.eks import EKSParams, run_eks, transition
 from sportfusion.gates.pipeline import GateAnchorParams, gate_anchor_table
-from sportfusion.schema import floats
-from sportfusion.session import with_columns
-from sportfusion.sim.gates import GatesConfig, simulate_gates
+from sportfusion.gates.sim import GatesConfig, simulate_gates
 
 
 @pytest.fixture(scope="module")
@@ -129,7 +129,7 @@ def test_bad_inputs(tmp_path, sim):
 
 
 def test_wgs84_survey_lands_in_the_session_frame():
-    from sportfusion.frames import Frame
+    from sportfusion.core.frames import Frame
     from sportfusion.gates.pipeline import survey_in_frame
 
     loc = simulate_gates(GatesConfig(seed=8, n_gates=5))

@@ -14,9 +14,9 @@ import pytest
 from click.testing import CliRunner
 from conftest import run_cli, session_bytes
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.frames import local_to_geodetic
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.frames import local_to_geodetic
 from sportfusion.tools.gps2hill import main
 
 ORIGIN = (47.4049, 10.2945, 948.0)  # lib/data/hills/oberstdorf_hs106.toml [site]
@@ -139,7 +139,7 @@ def test_paper_method_differs_by_the_measured_amount() -> None:
     ok = ~ref["mask"]
     dist = np.hypot(*(exact.column(c).to_numpy(zero_copy_only=False)[ok] for c in ("gnss_x", "gnss_y")))
     err = np.linalg.norm(diff, axis=0)
-    # quadratic in the distance: about 0.13 m per km^2 (see lib/frames.py)
+    # quadratic in the distance: about 0.13 m per km^2 (see lib/core/frames.py)
     assert np.all(err < 0.15 * (dist / 1000) ** 2 + 1e-3)
     assert err.max() > 0.05
     assert meta["provenance"][-1]["params"]["method"] == "paper"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sportfusion.gravity import normal_gravity
+from sportfusion.core.gravity import normal_gravity
 
 
 def test_formats_md_check_values():

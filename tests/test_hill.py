@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from sportfusion.errors import InputError
-from sportfusion.hill import Certificate, HillProfile
-from sportfusion.hillfile import load_hill, shipped_hills
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hill import Certificate, HillProfile
+from sportfusion.skijump.hillfile import load_hill, shipped_hills
 
 # Oberstdorf HS106 community numbers (shared/ref/hill-profile.md, "Data")
 OBERSTDORF = {

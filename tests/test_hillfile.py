@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from sportfusion.errors import InputError
-from sportfusion.gravity import normal_gravity
-from sportfusion.hillfile import load_hill, shipped_hills
+from sportfusion.core.errors import InputError
+from sportfusion.core.gravity import normal_gravity
+from sportfusion.skijump.hillfile import load_hill, shipped_hills
 
 ROOT = Path(__file__).resolve().parents[1]
 HILL_DIR = ROOT / "lib" / "data" / "hills"

@@ -10,15 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion import schema
 from sportfusion.climbing.grips import grip_columns
 from sportfusion.climbing.holds import read_holds
+from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
 from sportfusion.climbing.track import TrackOptions, track_holds
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import with_columns
 from sportfusion.ingest import Options, bouldering, combine, phyphox, read_recording
-from sportfusion.session import with_columns
-from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
 
 BIN = Path(sys.executable).parent
 IMU = ("t", *(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz"), "dev_q0", "dev_q1", "dev_q2", "dev_q3")

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.meta import epoch_unix
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Recording, combine, detect_format
-from sportfusion.meta import epoch_unix
-from sportfusion.session import Stream
 
 
 def _imu(epoch):

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
+from sportfusion.core.meta import epoch_unix
 from sportfusion.ingest import Options, csvmap
-from sportfusion.meta import epoch_unix
 
 BIN = Path(sys.executable).parent
 

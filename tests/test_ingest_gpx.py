@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
 from sportfusion.ingest import FORMATS, Options, gpx
 
 BIN = Path(sys.executable).parent

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
+from sportfusion.core.meta import epoch_unix
 from sportfusion.ingest import FORMATS, Options, nmea, read_recording
-from sportfusion.meta import epoch_unix
 
 BIN = Path(sys.executable).parent
 KNOT = 1852.0 / 3600.0

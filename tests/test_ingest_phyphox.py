@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
+from sportfusion.core.meta import epoch_unix
+from sportfusion.core.session import validate_time
 from sportfusion.ingest import Options, bouldering, combine, gpx, nmea, phyphox, read_recording, rtklib, xsens
-from sportfusion.meta import epoch_unix
-from sportfusion.session import validate_time
 from sportfusion.sim.rawfiles import write_nmea, write_phyphox_zip
 
 BIN = Path(sys.executable).parent

@@ -13,8 +13,8 @@ import numpy as np
 import pymap3d
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
 from sportfusion.ingest import FORMATS, Options, rtklib
 
 BIN = Path(sys.executable).parent
@@ -301,7 +301,7 @@ def _course_truth(t):
 
 def _e2e_pos(tmp_path, q_float: int, name: str) -> tuple[Path, np.ndarray, np.ndarray]:
     """A 10 Hz llh .pos in GPST with velocity columns and comment lines; float epochs shifted 0.4 m."""
-    from sportfusion.frames import Frame
+    from sportfusion.core.frames import Frame
 
     t = np.arange(0.0, 20.0, 0.1)
     truth = _course_truth(t)

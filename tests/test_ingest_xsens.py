@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.rotations import dcm_from_quat, quat_canonical, quat_normalize
 from sportfusion.ingest import Options, phyphox, read_recording, xsens
-from sportfusion.rotations import dcm_from_quat, quat_canonical, quat_normalize
 
 HEADER = """// Start Time: Unknown
 // Update Rate: 100.0Hz

@@ -10,10 +10,10 @@ import numpy as np
 import pyarrow as pa
 from click.testing import CliRunner
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.describe import sensor_rates
-from sportfusion.session import Stream, merge_streams
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.describe import sensor_rates
+from sportfusion.core.session import Stream, merge_streams
 from sportfusion.tools.inspect_cmd import main
 
 

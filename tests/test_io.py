@@ -8,9 +8,9 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.errors import InputError
 
 
 def _table():

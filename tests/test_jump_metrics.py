@@ -10,12 +10,12 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
-from sportfusion.jump_metrics import jump_metrics, jump_metrics_table, profile_foot
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.metrics import jump_metrics, jump_metrics_table, profile_foot
 
 FIX = "fixtures/skijump/"
 HILL = "oberstdorf_hs106"

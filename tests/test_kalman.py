@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportfusion.kalman import CovarianceError, Measurement, discretize, ekf_rts, rk4_step
+from sportfusion.estimators.kalman import CovarianceError, Measurement, discretize, ekf_rts, rk4_step
 
 
 def _problem(seed: int = 0, N: int = 30, n: int = 3):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportfusion.errors import InputError
-from sportfusion.magfield import decimal_year, field_from_angles, inclination_declination, reference_field
+from sportfusion.core.errors import InputError
+from sportfusion.core.magfield import decimal_year, field_from_angles, inclination_declination, reference_field
 
 
 def test_oberstdorf_formats_md():

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.errors import InputError
 
 json_leaf = st.one_of(
     st.none(),

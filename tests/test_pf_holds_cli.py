@@ -10,11 +10,11 @@ import pyarrow as pa
 import pytest
 from click.testing import CliRunner
 
-from sportfusion import io as sfio
-from sportfusion import schema
 from sportfusion.climbing.grips import grip_columns
-from sportfusion.session import with_columns
-from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
+from sportfusion.core.session import with_columns
 from sportfusion.tools.pf_holds import main
 
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import ROOT
 
-from sportfusion import io as sfio
 from sportfusion.batch import collect, read_config
+from sportfusion.core import io as sfio
 
 BIN = f"{Path(sys.executable).parent}/"
 FIX = ROOT / "fixtures"

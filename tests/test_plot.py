@@ -11,10 +11,10 @@ import pytest
 from click.testing import CliRunner
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.frames import gnss_to_frame
-from sportfusion.hillfile import load_hill
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.frames import gnss_to_frame
+from sportfusion.skijump.hillfile import load_hill
 from sportfusion.tools.plot import main
 
 pytest.importorskip("matplotlib")

@@ -10,9 +10,9 @@ import pytest
 from conftest import ROOT, run_cli
 from test_plot import check_png, check_svg
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
 
 pytest.importorskip("matplotlib")
 
@@ -59,7 +59,7 @@ def test_jump_figures(tmp_path, fmt):
 
 
 def test_errors_figure_reports_the_constructed_rms(tmp_path):
-    from sportfusion.plots_series import errors_figure
+    from sportfusion.core.plots import errors_figure
 
     est, truth = _estimate_from_truth(tmp_path)
     fig = errors_figure(sfio.read_table(est)[0], sfio.read_table(truth, kind="truth")[0])
@@ -90,7 +90,7 @@ def test_spline_figure(tmp_path):
 
 
 def test_float_spans():
-    from sportfusion.plots_course import float_spans
+    from sportfusion.skirace.plots import float_spans
 
     t = np.arange(10.0)
     fix = np.array([4, 5, 5, 4, 4, 5, 4, 4, 5, 5])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sportfusion import rotations as R
+from sportfusion.core import rotations as R
 
 RNG = np.random.default_rng(7)
 Q = R.quat_normalize(RNG.standard_normal((500, 4)))
@@ -108,7 +108,7 @@ def test_local_ned_frame(az):
 
 
 def test_skew_is_the_cross_product():
-    from sportfusion.rotations import skew
+    from sportfusion.core.rotations import skew
 
     rng = np.random.default_rng(5)
     a, b = rng.normal(size=(7, 3)), rng.normal(size=(7, 3))

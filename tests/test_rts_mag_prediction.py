@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from sportfusion import io as sfio
-from sportfusion import schema
-from sportfusion.hillfile import load_hill
-from sportfusion.rts_skijump import rts_smooth_table
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.smoother import rts_smooth_table
 
 FIX = "fixtures/skijump/"
 

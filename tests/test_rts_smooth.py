@@ -7,13 +7,14 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.frames import gnss_local_columns
 from sportfusion.evaluate import errors
-from sportfusion.frames import gnss_local_columns
-from sportfusion.hillfile import load_hill
-from sportfusion.rts_skijump import SmootherConfig, rts_smooth_table
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.smoother import rts_smooth_table
+from sportfusion.skijump.smoother_inputs import SmootherConfig
 
 FIX = "fixtures/skijump/"
 HILL = "oberstdorf_hs106"
@@ -171,8 +172,8 @@ def test_cli_bad_input_one_line(args, drop, expect):
 @pytest.mark.slow
 def test_two_jumps_in_one_session():
     """Two simulated jumps 30 s apart (IMU gap between them): each smoothed, both metrics near truth."""
-    from sportfusion.jump_metrics import jump_metrics_table
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.metrics import jump_metrics_table
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill(HILL)
     sims = [simulate_skijump(hill, SkiJumpConfig(seed=s)) for s in (3, 4)]
@@ -196,9 +197,13 @@ def test_two_jumps_in_one_session():
     assert np.isfinite(schema.floats(out, "x")).all()
     assert t.size == session.num_rows
     # jump metrics need the events in the table
-    from sportfusion.events import set_events
+    from sportfusion.core.events import set_events
 
-    out = set_events(out, [("takeoff", to[0]), ("touchdown", td[0]), ("takeoff", to[1]), ("touchdown", td[1])])
+    out = set_events(
+        out,
+        [("takeoff", to[0]), ("touchdown", td[0]), ("takeoff", to[1]), ("touchdown", td[1])],
+        replace=("takeoff", "touchdown"),
+    )
     jumps, jmeta, _ = jump_metrics_table(out, ometa, hill)
     assert jumps.num_rows == 2
     got = schema.floats(jumps, "jump_length")
@@ -209,13 +214,14 @@ def test_two_jumps_in_one_session():
 def test_compiled_engine_equals_reference_engine():
     """The numba loop (packed covariances, scalar updates) reproduces ekf_rts with the model callables."""
     pytest.importorskip("numba")
-    from sportfusion import rts_skijump as R
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
 
     tab, meta = sfio.read_table(FIX + "session.parquet")
     tab = tab.slice(0, 900)  # 9 s: rest, release, in-run
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
-    inp, _ = R.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
+    inp, _ = RI.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
     a = R.smooth_inputs(inp, hill, cfg, engine="numba")
     b = R.smooth_inputs(inp, hill, cfg, engine="numpy")
     np.testing.assert_allclose(a.x_filt, b.x_filt, rtol=0, atol=1e-9)
@@ -230,7 +236,7 @@ def test_compiled_engine_equals_reference_engine():
 @pytest.mark.slow
 def test_relinearisation_passes_recover_a_bad_start():
     """Seed 0 draws a gyro bias of 0.11 rad/s: one EKF pass locks onto a wrong heading, the passes do not."""
-    from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill(HILL)
     sim = simulate_skijump(hill, SkiJumpConfig(seed=0))
@@ -248,7 +254,7 @@ def test_relinearisation_passes_recover_a_bad_start():
 @pytest.mark.parametrize("engine", ["numba", "numpy"])
 def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
     """A hard c_q on a quaternion given zero prior variance: the innovation variance is zero at step 0."""
-    from sportfusion.errors import InputError
+    from sportfusion.core.errors import InputError
 
     tab, meta = sfio.read_table(FIX + "session.parquet")
     hill = load_hill(HILL)

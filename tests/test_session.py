@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sportfusion.errors import InputError
-from sportfusion.session import Stream, merge_streams, validate_time, with_columns
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream, merge_streams, validate_time, with_columns
 
 
 def test_shared_instants_share_a_row():

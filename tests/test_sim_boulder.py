@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sportfusion import io as sfio
-from sportfusion import schema
 from sportfusion.climbing import _so3
 from sportfusion.climbing.holds import validate
-from sportfusion.sim.boulder import BoulderConfig, disturbance_field, simulate_boulder
+from sportfusion.climbing.sim import BoulderConfig, disturbance_field, simulate_boulder
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
 
 CLEAN = dict(
     gyr_noise=0.0,

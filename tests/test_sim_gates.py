@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion.frames import geodetic_to_local
+from sportfusion.core import io as sfio
+from sportfusion.core.frames import geodetic_to_local
+from sportfusion.core.gravity import normal_gravity
+from sportfusion.core.magfield import reference_field
+from sportfusion.core.rotations import local_to_ned, quat_from_euler, to_body, to_ned
+from sportfusion.core.schema import floats
 from sportfusion.gates.magnet import default_calibration
-from sportfusion.gravity import normal_gravity
-from sportfusion.magfield import reference_field
-from sportfusion.rotations import local_to_ned, quat_from_euler, to_body, to_ned
-from sportfusion.schema import floats
-from sportfusion.sim.gates import FINE_DT, GatesConfig, body_rates, simulate_gates
+from sportfusion.gates.sim import FINE_DT, GatesConfig, body_rates, simulate_gates
 
 
 @pytest.fixture(scope="module")

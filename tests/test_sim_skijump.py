@@ -15,12 +15,12 @@ import pytest
 from conftest import ROOT
 from scipy.optimize import minimize_scalar
 
-from sportfusion import io as sfio
-from sportfusion import rotations, schema
-from sportfusion.frames import Frame
-from sportfusion.hillfile import load_hill
-from sportfusion.models import skijump_kinematics as kin
-from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump
+from sportfusion.core import io as sfio
+from sportfusion.core import rotations, schema
+from sportfusion.core.frames import Frame
+from sportfusion.skijump import kinematics as kin
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
 FIXTURES = ROOT / "fixtures" / "skijump"
 

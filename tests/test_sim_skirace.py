@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportfusion import io as sfio
-from sportfusion.gravity import normal_gravity
-from sportfusion.magfield import reference_field
-from sportfusion.rotations import local_to_ned, to_body
-from sportfusion.schema import floats
-from sportfusion.sim.skirace import FINE_DT, SkiRaceConfig, simulate_skirace
+from sportfusion.core import io as sfio
+from sportfusion.core.gravity import normal_gravity
+from sportfusion.core.magfield import reference_field
+from sportfusion.core.rotations import local_to_ned, to_body
+from sportfusion.core.schema import floats
+from sportfusion.skirace.sim import FINE_DT, SkiRaceConfig, simulate_skirace
 
 
 @pytest.fixture(scope="module")

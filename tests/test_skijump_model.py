@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from sportfusion import io as sfio
-from sportfusion import schema
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
-from sportfusion.models import skijump_ekf as mdl
-from sportfusion.models.skijump_kinematics import m_no
-from sportfusion.rts_skijump import ProfileTable, SmootherConfig, load_config, session_inputs
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.skijump import model as mdl
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.kinematics import m_no
+from sportfusion.skijump.smoother_inputs import ProfileTable, SmootherConfig, load_config, session_inputs
 
 FIX = "fixtures/skijump/"
 
@@ -97,7 +97,7 @@ def test_rk4_with_true_imu_reproduces_the_truth():
     r = np.stack([col(f"true_{a}") for a in "xyz"], axis=-1)
     v_o = np.stack([col(f"true_vel_{a}") for a in "ned"], axis=-1)
     q = np.stack([col(f"true_q{k}") for k in range(4)], axis=-1)
-    from sportfusion.models.skijump_kinematics import m_bo
+    from sportfusion.skijump.kinematics import m_bo
 
     x = np.zeros(mdl.N)
     x[0:3], x[3:6], x[6:10] = r[0], m_bo(q[0]) @ v_o[0], q[0]

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline, make_smoothing_spline
 
-from sportfusion import spline as sp
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.estimators import spline as sp
 
 
 def data(n: int = 150, seed: int = 3):

@@ -7,9 +7,9 @@ import pyarrow as pa
 import pytest
 from conftest import run_cli, session_bytes
 
-from sportfusion import io as sfio
-from sportfusion.schema import floats
-from sportfusion.sim.skirace import SkiRaceConfig, simulate_skirace
+from sportfusion.core import io as sfio
+from sportfusion.core.schema import floats
+from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 
 #: the paper's Table 1 (interpolating splines on decimated 10 Hz downhill data) [m]
 TABLE1 = {2: (0.02, 0.02, 0.03, 0.03), 1: (0.09, 0.09, 0.12, 0.13), 0.5: (0.73, 0.65, 0.42, 0.38)}

@@ -1,13 +1,13 @@
-"""Pinhole camera, slope surface and slope-plane homography (lib/video/camera.py)."""
+"""Pinhole camera, slope surface and slope-plane homography (lib/skijump/video/camera.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
-from sportfusion.video.camera import Camera, Slope, apply_homography, focal_px
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.video.camera import Camera, Slope, apply_homography, focal_px
 
 
 @pytest.fixture(scope="module")

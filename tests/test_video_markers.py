@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
-from sportfusion.video.calibration import fit_slope_map
-from sportfusion.video.camera import Camera, Slope
-from sportfusion.video.markers import (
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.video.calibration import fit_slope_map
+from sportfusion.skijump.video.camera import Camera, Slope
+from sportfusion.skijump.video.markers import (
     check_in_frame,
     make_markers,
     markers_path_for,

@@ -17,13 +17,15 @@ import pytest
 from click.testing import CliRunner
 from conftest import run_cli
 
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
-from sportfusion.hillfile import load_hill
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.hillfile import load_hill
+from sportfusion.skijump.video.markers import make_markers, read_markers, write_markers
+from sportfusion.skijump.video.measure import measure_video, read_jump, read_skis
+from sportfusion.skijump.video.render import RenderOptions, parabolic_landing, render_landing
+from sportfusion.skijump.video.skis import half_max_edge
+from sportfusion.skijump.video.touchdown import fit_touchdown
 from sportfusion.tools import video_jumplength as vj
-from sportfusion.video.markers import make_markers, read_markers, write_markers
-from sportfusion.video.measure import fit_touchdown, half_max_edge, measure_video, read_jump, read_skis
-from sportfusion.video.render import RenderOptions, parabolic_landing, render_landing
 
 
 @pytest.fixture(scope="module")

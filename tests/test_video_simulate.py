@@ -6,10 +6,10 @@ import cv2
 import pytest
 from click.testing import CliRunner
 
-from sportfusion import io as sfio
+from sportfusion.core import io as sfio
+from sportfusion.skijump.video.markers import read_markers
 from sportfusion.tools import simulate
 from sportfusion.tools import video_jumplength as vj
-from sportfusion.video.markers import read_markers
 
 
 @pytest.fixture(scope="module")
@@ -66,8 +66,8 @@ def test_evaluate_joins_a_jumps_table_with_the_video_reading(simulated, tmp_path
     import numpy as np
     import pyarrow as pa
 
-    from sportfusion import meta as sfmeta
-    from sportfusion import schema
+    from sportfusion.core import meta as sfmeta
+    from sportfusion.core import schema
     from sportfusion.tools import evaluate
 
     vr = tmp_path / "vr.parquet"

@@ -21,9 +21,9 @@ import click
 import pyarrow as pa
 
 from sportfusion import __version__
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.errors import InputError
 
 T = TypeVar("T")
 

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 if TYPE_CHECKING:
-    from sportfusion.hillfile import Hill
+    from sportfusion.skijump.hillfile import Hill
 
 
 def parse_pairs(values: Iterable[str], option: str) -> dict[str, str]:
@@ -42,7 +42,7 @@ def hill_options(func: Callable[..., Any] | None = None, *, required: bool = Fal
 
     Use as ``@hill_options`` or ``@hill_options(required=True)``; the command
     receives ``hill`` (str or None) and ``hill_set`` (tuple of str) and turns
-    them into a :class:`sportfusion.hillfile.Hill` with :func:`load_hill_option`.
+    them into a :class:`sportfusion.skijump.hillfile.Hill` with :func:`load_hill_option`.
     """
 
     def decorate(f: Callable[..., Any]) -> Callable[..., Any]:
@@ -67,17 +67,17 @@ def hill_options(func: Callable[..., Any] | None = None, *, required: bool = Fal
 
 
 def load_hill_option(hill: str | None, hill_set: Iterable[str]) -> Hill | None:
-    """The :class:`sportfusion.hillfile.Hill` named by ``--hill`` with ``--hill-set`` applied, or None.
+    """The :class:`sportfusion.skijump.hillfile.Hill` named by ``--hill`` with ``--hill-set`` applied, or None.
 
     ``--hill-set`` without ``--hill`` is a usage error; a bad hill raises
-    :class:`sportfusion.errors.InputError` (exit 1).
+    :class:`sportfusion.core.errors.InputError` (exit 1).
     """
     overrides = parse_pairs(hill_set, "--hill-set")
     if hill is None:
         if overrides:
             raise click.UsageError("--hill-set needs --hill NAME|FILE.toml")
         return None
-    from sportfusion.hillfile import load_hill
+    from sportfusion.skijump.hillfile import load_hill
 
     return load_hill(hill, overrides)
 
@@ -116,3 +116,34 @@ def course_site_options(site: str, azimuth: float, date: str) -> Any:
         )(f)
 
     return decorate
+
+
+def _image_path(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    from sportfusion.core.errors import InputError
+    from sportfusion.core.plots import figure_format
+
+    try:
+        figure_format(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc)) from exc
+    return value
+
+
+def image_options(f: Any) -> Any:
+    """``-o FILE.png|svg``, ``--dpi`` and ``--title`` for a ``plot`` subcommand."""
+    f = click.option(
+        "--dpi",
+        type=click.FloatRange(10, 1200),
+        default=150,
+        show_default=True,
+        help="PNG resolution [dots per inch] (SVG is vector).",
+    )(f)
+    f = click.option("--title", default=None, help="Figure title (default: the hill's name).")(f)
+    return click.option(
+        "-o",
+        "--output",
+        required=True,
+        type=click.Path(dir_okay=False, writable=True),
+        callback=_image_path,
+        help="Image file to write; the suffix picks the format: .png or .svg.",
+    )(f)

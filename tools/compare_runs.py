@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.compare import compare_tables, require_trajectory
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.skirace.compare import compare_tables, require_trajectory
 from sportfusion.tools._cli import Tool, tool
 
 

@@ -14,9 +14,9 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.climbing.grips import GripParams, grip_columns
-from sportfusion.events import JumpParams, detect_jump_events
+from sportfusion.core.session import with_columns
 from sportfusion.gates.crossings import GateParams, detect_gate_table, gate_columns, read_calibration
-from sportfusion.session import with_columns
+from sportfusion.skijump.events import JumpParams, detect_jump_events
 from sportfusion.tools._cli import Tool, tool
 
 

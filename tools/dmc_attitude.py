@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.dmc import dmc_table
-from sportfusion.session import with_columns
+from sportfusion.core.session import with_columns
+from sportfusion.skirace.dmc import dmc_table
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_floats
 

@@ -6,8 +6,8 @@ import sys
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
 from sportfusion.evaluate import (
     PAPER_READING_ACCURACY,
     check_estimate,

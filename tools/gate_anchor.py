@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from sportfusion import io as sfio
+from sportfusion.core import io as sfio
 from sportfusion.gates.eks import EKSParams
 from sportfusion.gates.pipeline import GateAnchorParams, gate_anchor_table
 from sportfusion.tools._cli import Tool, tool
@@ -107,7 +107,7 @@ def main(
     points (gates paper, Figure 2): gravity-removed acceleration in a global frame
     (strap-down with drift correction, or the session's q0..q3), a 15-state
     extended Kalman smoother (position, velocity, acceleration, position offset,
-    residual orientation drift; sportfusion.kalman) with zero-velocity updates at
+    residual orientation drift; sportfusion.estimators.kalman) with zero-velocity updates at
     the static start and finish; relative anchor points at the crossings found by
     detect-events --kind gates; matching to the survey (PCA azimuth, neighbour
     features, eq 9, median offset, absolute re-matching); the smoother again with

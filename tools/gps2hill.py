@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.frames import GNSS_COLUMNS, METHODS, Frame, gnss_to_frame
-from sportfusion.schema import require_columns
+from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, gnss_to_frame
+from sportfusion.core.schema import require_columns
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
 

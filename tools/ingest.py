@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.io import write_table
+from sportfusion.core.meta import add_provenance
 from sportfusion.ingest import FORMATS, Options, combine, read_recording
-from sportfusion.io import write_table
-from sportfusion.meta import add_provenance
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_pairs
 

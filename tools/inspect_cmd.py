@@ -8,7 +8,7 @@ import sys
 import click
 import pyarrow.csv as pacsv
 
-from sportfusion.describe import render
+from sportfusion.core.describe import render
 from sportfusion.tools._cli import Tool, tool
 
 

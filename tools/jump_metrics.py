@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from sportfusion.jump_metrics import jump_metrics_table
-from sportfusion.schema import require_columns
+from sportfusion.core.schema import require_columns
+from sportfusion.skijump.hillfile import hill_from_meta
+from sportfusion.skijump.metrics import jump_metrics_table
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option
-from sportfusion.tools.rts_smooth import _hill_from_meta
 
 
 @tool(
@@ -26,7 +26,7 @@ def main(tool: Tool, hill: str | None, hill_set: tuple[str, ...]) -> None:
     table's metadata."""
     table, meta = tool.read()
     require_columns(table, ("x", "y", "z", "vx", "vy", "vz"), "jump-metrics (rts-smooth output)")
-    the_hill = load_hill_option(hill, hill_set) or _hill_from_meta(meta)
+    the_hill = load_hill_option(hill, hill_set) or hill_from_meta(meta)
     out, meta, msg = jump_metrics_table(table, meta, the_hill)
     tool.info(msg)
     tool.write(out, meta)

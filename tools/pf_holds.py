@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import click
 
-from sportfusion import schema
 from sportfusion.climbing.holds import read_holds
 from sportfusion.climbing.particles import HoldModel, PFParams
 from sportfusion.climbing.track import TrackOptions, track_holds
-from sportfusion.errors import InputError
-from sportfusion.session import with_columns
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import with_columns
 from sportfusion.tools._cli import Tool, tool
 
 

@@ -2,44 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import click
 
 from sportfusion import __version__
-from sportfusion import io as sfio
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core.errors import InputError
 from sportfusion.tools._cli import Group, Tool, tool
-from sportfusion.tools._options import hill_options, load_hill_option
-
-
-def _image_path(ctx: click.Context, param: click.Parameter, value: str) -> str:
-    from sportfusion.plots import figure_format
-
-    try:
-        figure_format(value)
-    except InputError as exc:
-        raise click.BadParameter(str(exc)) from exc
-    return value
-
-
-def _image_options(f: Any) -> Any:
-    f = click.option(
-        "--dpi",
-        type=click.FloatRange(10, 1200),
-        default=150,
-        show_default=True,
-        help="PNG resolution [dots per inch] (SVG is vector).",
-    )(f)
-    f = click.option("--title", default=None, help="Figure title (default: the hill's name).")(f)
-    return click.option(
-        "-o",
-        "--output",
-        required=True,
-        type=click.Path(dir_okay=False, writable=True),
-        callback=_image_path,
-        help="Image file to write; the suffix picks the format: .png or .svg.",
-    )(f)
+from sportfusion.tools._options import hill_options, image_options, load_hill_option
+from sportfusion.tools.plot_figures import COMMANDS as FIGURE_COMMANDS
 
 
 @tool(
@@ -51,11 +21,12 @@ def _image_options(f: Any) -> Any:
   plot hill --hill my_hill.toml --hill-set rL=230 -o my_hill.svg""",
 )
 @hill_options(required=True)
-@_image_options
+@image_options
 def hill_cmd(tool: Tool, hill: str, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float) -> None:
     """Draw a hill's longitudinal profile (in-run, landing hill, out-run) with
     its key points A B E1 E2 T F P K L U, in the hill frame [m]."""
-    from sportfusion.plots import figure_format, hill_figure, render
+    from sportfusion.core.plots import figure_format, render
+    from sportfusion.skijump.plots import hill_figure
 
     the_hill = load_hill_option(hill, hill_set)
     fig = hill_figure(the_hill.profile, title or the_hill.name)
@@ -71,14 +42,15 @@ def hill_cmd(tool: Tool, hill: str, hill_set: tuple[str, ...], output: str, titl
   plot track smoothed.parquet -o jump.svg --hill oberstdorf_hs106""",
 )
 @hill_options
-@_image_options
+@image_options
 def track_cmd(
     tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
 ) -> None:
     """Draw a session's GNSS points (gnss_x gnss_y gnss_z [m]) and any
     estimated x y z [m] with a 1-sigma band (std_z, std_y) in side and top
     view, over the hill profile: --hill, else the hill recorded by gps2hill."""
-    from sportfusion.plots import figure_format, profile_from_meta, render, track_figure
+    from sportfusion.core.plots import figure_format, render
+    from sportfusion.skijump.plots import profile_from_meta, track_figure
 
     table, meta = tool.read(kind=("session", "truth"))
     the_hill = load_hill_option(hill, hill_set)
@@ -100,7 +72,7 @@ def track_cmd(
   plot compare compare.parquet --profile speed.parquet -o compare.svg --title "Downhill, St. Moritz" """,
     input_help="Summary table written by compare-runs; default: standard input.",
 )
-@_image_options
+@image_options
 @click.option(
     "--profile",
     "profile_path",
@@ -114,7 +86,8 @@ def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_
     time difference [s], gate-to-gate time difference [s], difference of the
     distance along the path [m] and of the speed at the gate [m/s], each run
     minus the reference."""
-    from sportfusion.plots import compare_figure, figure_format, render
+    from sportfusion.core.plots import figure_format, render
+    from sportfusion.skirace.plots import compare_figure
 
     table, meta = tool.read(kind=None)
     profile = None
@@ -145,7 +118,7 @@ def main() -> None:
 
 main.add_command(hill_cmd, name="hill")
 main.add_command(track_cmd, name="track")
-for _name, _cmd in __import__("sportfusion.tools.plot_figures", fromlist=["COMMANDS"]).COMMANDS.items():
+for _name, _cmd in FIGURE_COMMANDS.items():
     main.add_command(_cmd, name=_name)
 main.add_command(compare_cmd, name="compare")
 

@@ -1,23 +1,22 @@
 """``plot`` subcommands for the figures of the papers: speed, series, errors, mag, spline, gates, holds.
 
 Each reads one table (stdin or INPUT), takes side inputs as options and writes one image (-o, PNG
-or SVG by suffix). The drawing lives in :mod:`sportfusion.plots_series` and
-:mod:`sportfusion.plots_course`.
+or SVG by suffix). The drawing lives in :mod:`sportfusion.core.plots` and
+:mod:`sportfusion.skirace.plots`.
 """
 
 from __future__ import annotations
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import schema
+from sportfusion.core import io as sfio
+from sportfusion.core import schema
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import hill_options, load_hill_option
-from sportfusion.tools.plot import _image_options
+from sportfusion.tools._options import hill_options, image_options, load_hill_option
 
 
 def _write(tool: Tool, fig: object, output: str, dpi: float) -> None:
-    from sportfusion.plots import figure_format, render
+    from sportfusion.core.plots import figure_format, render
 
     sfio.write_bytes(render(fig, figure_format(output), dpi), output)  # type: ignore[arg-type]
     tool.info(f"wrote {output}")
@@ -40,14 +39,13 @@ def _truth_option(required: bool = False):  # noqa: ANN202 - click decorator
   rts-smooth jump.parquet --hill oberstdorf_hs106 | plot speed -o speed.png""",
 )
 @hill_options
-@_image_options
+@image_options
 def speed_cmd(
     tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
 ) -> None:
     """Side view of the estimated trajectory x, -z [m] coloured by speed [m/s] over the hill profile
     (skijump Figure 7); events annotated with their speed. Hill: --hill, else the session's hill."""
-    from sportfusion.plots import profile_from_meta
-    from sportfusion.plots_series import speed_figure
+    from sportfusion.skijump.plots import profile_from_meta, speed_figure
 
     table, meta = tool.read()
     the_hill = load_hill_option(hill, hill_set)
@@ -61,11 +59,11 @@ def speed_cmd(
     example="""
   plot series smoothed.parquet -o series.png""",
 )
-@_image_options
+@image_options
 def series_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
     """Position [m] (with the GNSS points), velocity [m/s], attitude [deg] and estimated sensor
     biases against time [s], 1-sigma bands, events as dashed lines (skijump Figures 8-11)."""
-    from sportfusion.plots_series import series_figure
+    from sportfusion.core.plots import series_figure
 
     table, meta = tool.read()
     _write(tool, series_figure(table, meta, title or ""), output, dpi)
@@ -79,11 +77,11 @@ def series_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
   ... | rts-smooth --hill oberstdorf_hs106 | plot errors --truth truth.parquet -o errors.png""",
 )
 @_truth_option(required=True)
-@_image_options
+@image_options
 def errors_cmd(tool: Tool, truth_path: str, output: str, title: str | None, dpi: float) -> None:
     """Estimate minus truth against time [s]: position [m], velocity [m/s] and the attitude rotation
     angle [deg], with the estimated 1-sigma band (skijump Figure 6)."""
-    from sportfusion.plots_series import errors_figure
+    from sportfusion.core.plots import errors_figure
 
     table, _ = tool.read()
     truth, _ = sfio.read_table(truth_path, kind="truth")
@@ -96,11 +94,11 @@ def errors_cmd(tool: Tool, truth_path: str, output: str, title: str | None, dpi:
     example="""
   plot mag smoothed.parquet -o mag.png""",
 )
-@_image_options
+@image_options
 def mag_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
     """Measured magnetometer mag_x.. against the smoother's estimate mag_pred_x.. [uT or 1] against
     time [s] (skijump Figure 12)."""
-    from sportfusion.plots_series import mag_figure
+    from sportfusion.skijump.plots import mag_figure
 
     table, _ = tool.read()
     _write(tool, mag_figure(table, title or ""), output, dpi)
@@ -114,11 +112,11 @@ def mag_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
   plot spline smoothed.parquet --truth truth.parquet -o spline.svg""",
 )
 @_truth_option()
-@_image_options
+@image_options
 def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
     """Raw GNSS gnss_x, gnss_y [m] against the smoothing spline x, y [m] in plan view, and their
     horizontal difference [m] against time [s] with RTK-float epochs shaded (skiracing Figures 5-6)."""
-    from sportfusion.plots_course import spline_figure
+    from sportfusion.skirace.plots import spline_figure
 
     table, _ = tool.read()
     truth = sfio.read_table(truth_path, kind="truth")[0] if truth_path else None
@@ -138,11 +136,11 @@ def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | Non
     required=True,
     help="Gate survey (kind gates: gate, x, y, z [m] in the session's local frame).",
 )
-@_image_options
+@image_options
 def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: float) -> None:
     """Top view of an alpine course [m]: surveyed gates, the trajectory, and each detected crossing
     joined to the gate it was matched to (gates paper Figure 2)."""
-    from sportfusion.plots_course import gates_figure
+    from sportfusion.gates.plots import gates_figure
 
     table, _ = tool.read()
     schema.require_columns(table, ["x", "y"], "a session with a trajectory (gate-anchor output)")
@@ -164,11 +162,11 @@ def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: 
     help="Hold map (kind holds: route, hold, x, y, z [m]; up axis and start holds in its metadata).",
 )
 @_truth_option()
-@_image_options
+@image_options
 def holds_cmd(tool: Tool, holds_path: str, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
     """Front view of the wall [m]: the routes' holds (S: start hold), the estimated hand path with its
     grips, and the true path when --truth is given (climbing paper Figure 6)."""
-    from sportfusion.plots_course import holds_figure
+    from sportfusion.climbing.plots import holds_figure
 
     table, _ = tool.read()
     schema.require_columns(table, ["x", "y", "z"], "a session with a hand path (pf-holds output)")

@@ -6,10 +6,10 @@ import sys
 
 import click
 
-from sportfusion.errors import InputError
-from sportfusion.hillfile import Hill, load_hill
-from sportfusion.rts_skijump import IMU_COLUMNS, SmootherConfig, load_config, rts_smooth_table
-from sportfusion.schema import require_columns
+from sportfusion.core.schema import require_columns
+from sportfusion.skijump.hillfile import hill_from_meta
+from sportfusion.skijump.smoother import rts_smooth_table
+from sportfusion.skijump.smoother_inputs import IMU_COLUMNS, SmootherConfig, load_config
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option
 
@@ -21,14 +21,6 @@ def _times(text: str | None, option: str) -> list[float] | None:
         return [float(v) for v in text.split(",") if v.strip()]
     except ValueError as exc:
         raise click.BadParameter(f"{text!r} is not comma-separated seconds", param_hint=option) from exc
-
-
-def _hill_from_meta(meta: dict) -> Hill:
-    h = meta.get("hill") or {}
-    spec = h.get("spec")
-    if not spec:
-        raise InputError("no --hill given and the table's metadata names no hill; expected --hill NAME|FILE.toml")
-    return load_hill(spec, h.get("overrides") or None)
 
 
 @tool(
@@ -57,7 +49,7 @@ def _hill_from_meta(meta: dict) -> Hill:
     type=click.Path(dir_okay=False),
     default=None,
     help="TOML file overriding the smoother settings (1-sigma P0, Q, R of Tables 3-5 in m, m/s, rad/s, m/s^2, uT; "
-    "windows in s); keys as in sportfusion.rts_skijump.SmootherConfig.",
+    "windows in s); keys as in sportfusion.skijump.smoother_inputs.SmootherConfig.",
 )
 @click.option(
     "--no-hill-constraints",
@@ -88,7 +80,7 @@ def main(
     columns, std_ columns, and the constraint residuals c_q c_v_ir c_h_ir c_v_la."""
     table, meta = tool.read()
     require_columns(table, IMU_COLUMNS, "rts-smooth (gyroscope and accelerometer)")
-    the_hill = load_hill_option(hill, hill_set) or _hill_from_meta(meta)
+    the_hill = load_hill_option(hill, hill_set) or hill_from_meta(meta)
     cfg = load_config(config, SmootherConfig())
     if no_hill_constraints:
         cfg.hill_constraints = False

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.sim.boulder import BoulderConfig, simulate_boulder
+from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import seed_truth_options
 

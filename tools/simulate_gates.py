@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.sim.gates import GatesConfig, simulate_gates
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.gates.sim import GatesConfig, simulate_gates
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import course_site_options, parse_floats, seed_truth_options
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import click
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion.sim.skijump import SkiJumpConfig, simulate_skijump, write_raw
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump, write_raw
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
 
@@ -170,7 +170,7 @@ def main(
         f"jump length {sim.truth_meta['jump_length']:.2f} m; {sim.session.num_rows} rows"
     )
     if video_path:
-        from sportfusion.video.render import RenderOptions, render_simulated
+        from sportfusion.skijump.video.render import RenderOptions, render_simulated
 
         size = video_size.lower().split("x")
         if len(size) != 2 or not all(v.strip().isdigit() for v in size):

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.session import with_columns
-from sportfusion.spline_track import smooth_session
+from sportfusion.core.session import with_columns
+from sportfusion.skirace.track import smooth_session
 from sportfusion.tools._cli import Tool, tool
 
 

@@ -15,13 +15,14 @@ import cv2
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import __version__, schema
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
+from sportfusion import __version__
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.skijump.video.annotate import grid_image, write_debug
+from sportfusion.skijump.video.markers import markers_path_for, read_markers
+from sportfusion.skijump.video.measure import measure_video
 from sportfusion.tools._cli import Group, Tool, tool
-from sportfusion.video.annotate import grid_image, write_debug
-from sportfusion.video.markers import markers_path_for, read_markers
-from sportfusion.video.measure import measure_video
 
 COLUMNS = (
     "video",

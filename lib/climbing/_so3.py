@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from sportfusion.rotations import skew as hat
+from sportfusion.core.rotations import skew as hat
 
 _SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
 

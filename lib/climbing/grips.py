@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
 from sportfusion.climbing import _so3
-from sportfusion.errors import InputError
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 
 IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z")
 DEV_Q = ("dev_q0", "dev_q1", "dev_q2", "dev_q3")

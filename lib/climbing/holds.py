@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import io as sfio
-from sportfusion import meta as sfmeta
-from sportfusion import schema
-from sportfusion.errors import InputError
+from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 
 AXES = {"x": 0, "y": 1, "z": 2}
 DEFAULT_GRAVITY = 9.81  # m/s^2

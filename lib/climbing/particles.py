@@ -43,7 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.estimators.particles import effective_size, reweight, systematic_resample
 
 ELSEWHERE = -1
 
@@ -192,14 +193,6 @@ class _Model:
         return pos + self.step[k] * c + self.kstep[k] * s + self.ustep[k] * (1.0 - c)
 
 
-def _systematic(w: np.ndarray, u0: float) -> np.ndarray:
-    m = w.size
-    u = (u0 + np.arange(m)) / m
-    c = np.cumsum(w)
-    c[-1] = 1.0
-    return np.minimum(np.searchsorted(c, u), m - 1)
-
-
 def run_particle_filter(
     t: np.ndarray,
     v: np.ndarray,
@@ -283,10 +276,7 @@ def run_particle_filter(
         if grip[k]:
             ids, centres = (w_ids, w_pos) if late[k] else (r_ids, r_pos)
             ll, lab = grip_log_likelihood(pos, centres, ids, p.hold)
-            with np.errstate(divide="ignore"):
-                lw = np.log(w) + ll
-            w = np.exp(lw - lw.max())
-            w /= w.sum()
+            w = reweight(w, ll)
             dirty = True
         hist_pos[k], hist_psi[k], hist_w[k], hist_lab[k] = pos, psi, w, lab
         if dirty:  # weights or labels changed: the most likely cluster again
@@ -298,8 +288,8 @@ def run_particle_filter(
             dirty = False
         out_pos[k], out_yaw[k] = wsel @ pos[sel], wsel @ psi[sel]
         out_lab[k], out_prob[k] = best - 1, prob
-        if grip[k] and 1.0 / (w @ w) < p.ess_fraction * m:
-            idx = _systematic(w, u_res[k])
+        if grip[k] and effective_size(w) < p.ess_fraction * m:
+            idx = systematic_resample(w, u_res[k])
             pos, psi, lab = pos[idx], psi[idx], lab[idx]
             w = np.full(m, 1.0 / m)
             resamples += 1

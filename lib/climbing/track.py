@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
 from sportfusion.climbing._so3 import axis_rotation
 from sportfusion.climbing.grips import GripParams, range_violations
 from sportfusion.climbing.holds import HoldMap
 from sportfusion.climbing.particles import PFParams, PFResult, run_particle_filter
 from sportfusion.climbing.transition import TransitionParams, TransitionResult, estimate_transitions
-from sportfusion.errors import InputError
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 
 IMU = tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz")
 

@@ -42,7 +42,7 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from sportfusion.climbing import _so3
 from sportfusion.climbing.orientation import complementary_filter
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
 
 NX = 6  # tangent dimension per sample: rotation (3), velocity (3)
 NB = 9  # biases: accelerometer, gyroscope, magnetometer

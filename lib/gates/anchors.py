@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
 
 
 # --------------------------------------------------------------------------- relative anchors (eqs 2-6)

@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
-from sportfusion.errors import InputError
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 from sportfusion.gates.magnet import MagnetCalibration, default_calibration, fit_calibration, refine_peak
 
 GATE_EVENTS = ("gate",)
@@ -163,7 +163,7 @@ def read_calibration(path: str) -> MagnetCalibration:
     Parquet with columns ``distance`` and ``gate_b_peak``; fitted with :func:`fit_calibration`."""
     try:
         if path.endswith(".parquet"):
-            from sportfusion import io as sfio
+            from sportfusion.core import io as sfio
 
             table, _ = sfio.read_table(path, what=f"calibration table {path}")
             schema.require_columns(table, ("distance", "gate_b_peak"), "a magnet calibration table")
@@ -205,7 +205,7 @@ def detect_gate_table(
 def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     """Columns ``event`` (``gate`` at each crossing's row, other events kept), ``gate_b_peak``,
     ``gate_distance``, ``turn`` (null except at crossing rows)."""
-    from sportfusion.events import set_events
+    from sportfusion.core.events import set_events
 
     out = set_events(table, [("gate", c.t) for c in det.crossings], replace=GATE_EVENTS)
     t = schema.floats(table, "t")

@@ -1,5 +1,5 @@
 """The paper's 15-state extended Kalman smoother of the sacrum (EKS 1 and EKS 2), run by the suite's one
-smoother core :func:`sportfusion.kalman.ekf_rts`.
+smoother core :func:`sportfusion.estimators.kalman.ekf_rts`.
 
 State (global frame J: z down, origin at the sacrum at start, azimuth 0 at the static start)::
 
@@ -9,7 +9,7 @@ position, velocity and acceleration of the sacrum, a position offset ``o`` (the 
 inertial track and the anchors' frame: anchors measure ``p + o``), and three small Euler angles ``eps``
 of residual orientation drift.
 
-Time-index convention (:mod:`sportfusion.kalman`): step k is sample k of the smoother grid (time
+Time-index convention (:mod:`sportfusion.estimators.kalman`): step k is sample k of the smoother grid (time
 ``t[k]``); ``propagate(k, x_{k|k})`` returns ``x_{k+1|k}``, ``Phi_k`` (maps the error of ``x_k`` onto
 ``x_{k+1}``) and ``Qd_k``.
 
@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportfusion.kalman import Measurement, SmootherResult, ekf_rts
-from sportfusion.rotations import skew
+from sportfusion.core.rotations import skew
+from sportfusion.estimators.kalman import Measurement, SmootherResult, ekf_rts
 
 N_STATES = 15
 P_, V_, A_, O_, E_ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
@@ -133,7 +133,7 @@ def run_eks(
     Returns
     -------
     SmootherResult
-        From :func:`sportfusion.kalman.ekf_rts`; ``x_smooth[:, 0:3]`` is the sacrum position, ``9:12`` the
+        From :func:`sportfusion.estimators.kalman.ekf_rts`; ``x_smooth[:, 0:3]`` is the sacrum position, ``9:12`` the
         offset (anchor frame = ``p + o``).
     """
     p = params or EKSParams()

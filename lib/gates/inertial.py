@@ -23,13 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportfusion.errors import InputError
-from sportfusion.rotations import (
-    dcm_from_quat,
-    quat_from_euler,
-    quat_multiply,
-    quat_normalize,
-)
+from sportfusion.core.errors import InputError
+from sportfusion.core.rotations import dcm_from_quat, quat_from_euler, quat_multiply, quat_normalize
 
 
 @dataclass

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
 
 MU0_4PI = 1e-7  # mu_0 / (4 pi) [T m / A]
 

@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.rotations import euler_from_quat
 from sportfusion.gates.anchors import (
     MatchParams,
     match_anchors,
@@ -42,7 +43,6 @@ from sportfusion.gates.anchors import (
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
 from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
-from sportfusion.rotations import euler_from_quat
 
 
 @dataclass(frozen=True)
@@ -346,14 +346,14 @@ def gate_anchor_arrays(
 
 # --------------------------------------------------------------------------- tables
 def survey_in_frame(survey: Any, survey_meta: dict[str, Any], frame: Any) -> tuple[np.ndarray, Any]:
-    """Surveyed magnets as an (N, 3) array in ``frame`` (a :class:`sportfusion.frames.Frame` or None).
+    """Surveyed magnets as an (N, 3) array in ``frame`` (a :class:`sportfusion.core.frames.Frame` or None).
 
     A WGS84 survey (``lat lon h``) is converted into ``frame`` (or, without one, into a frame at the first
     gate with azimuth 0, which is returned); a local survey (``x y z``) in another declared frame is
     converted through WGS84; a local survey without a frame is taken to be in ``frame``.
     """
-    from sportfusion import schema
-    from sportfusion.frames import Frame
+    from sportfusion.core import schema
+    from sportfusion.core.frames import Frame
 
     names = survey.column_names
     sf = Frame.from_meta(survey_meta["frame"]) if survey_meta.get("frame") else None
@@ -385,12 +385,12 @@ def gate_anchor_table(
     ``gate_anchor`` (used as an anchor), ``turn_v_in turn_v_out turn_d_in turn_d_out turn_d_cross
     turn_length``; the metadata gets a ``gate_anchor`` entry (passes, matching, per-turn figures).
     """
-    from sportfusion import schema
-    from sportfusion.frames import Frame
+    from sportfusion.core import schema
+    from sportfusion.core.frames import Frame
+    from sportfusion.core.gravity import G_STANDARD, normal_gravity
+    from sportfusion.core.rotations import quat_multiply
+    from sportfusion.core.session import with_columns
     from sportfusion.gates.crossings import read_crossings
-    from sportfusion.gravity import G_STANDARD, normal_gravity
-    from sportfusion.rotations import quat_multiply
-    from sportfusion.session import with_columns
 
     p = params or GateAnchorParams()
     schema.require_columns(table, ("acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"), "gate-anchor")
@@ -426,7 +426,7 @@ def gate_anchor_table(
             q = quat_multiply(qz, qn)
     g = normal_gravity(frame.lat, frame.h) if frame is not None else G_STANDARD
     dist = np.where(np.isfinite(cr["distance"]), cr["distance"], np.nan)
-    from sportfusion.kalman import CovarianceError
+    from sportfusion.estimators.kalman import CovarianceError
 
     try:
         res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)

@@ -6,14 +6,14 @@ Each format lives in its own module with two functions:
     True when the file (or folder) looks like this format; ``head`` is the
     first 4 KiB of a file (empty for a folder).
 ``read(path: Path, opts: Options) -> Recording``
-    Parse it into sensor :class:`~sportfusion.session.Stream` objects whose
+    Parse it into sensor :class:`~sportfusion.core.session.Stream` objects whose
     times are seconds since ``Recording.epoch_utc`` (Unix seconds), or since
     an arbitrary start when the format has no absolute time (``epoch_utc``
     None).
 
 :func:`combine` puts several recordings on one clock (UTC where they have
 it, plus per-input offsets) and merges them with
-:func:`sportfusion.session.merge_streams`.
+:func:`sportfusion.core.session.merge_streams`.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ from typing import Any
 
 import pyarrow as pa
 
-from sportfusion import meta as sfmeta
-from sportfusion.errors import InputError
-from sportfusion.session import Stream, merge_streams
+from sportfusion.core import meta as sfmeta
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
 FORMATS = ("bouldering", "phyphox", "rtklib", "xsens", "nmea", "gpx", "csvmap")

@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
 
 _HEADER = re.compile(r"^\s*(.*?)\s*(?:[(\[]([^()\[\]]*)[)\]])?\s*$")
 _DECIMAL_COMMA = re.compile(r"^\s*\"?[-+]?\d+,\d+(?:[eE][-+]?\d+)?\"?\s*$")

@@ -48,12 +48,12 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
 from sportfusion.climbing.holds import holds_table
-from sportfusion.errors import InputError
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited
-from sportfusion.session import Stream
 
 COLUMNS = (
     "t",

@@ -30,11 +30,11 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from sportfusion import schema
-from sportfusion.errors import InputError
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited, unit_factor
-from sportfusion.session import Stream
 
 #: Seconds per unit of a numeric time column.
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}

@@ -22,7 +22,7 @@ Time
     accepted only for an exact repeat of the previous point, e.g. where two
     segments meet; the merge folds it into one row).  Points without time,
     all points at one time, or a time going backwards raise
-    :class:`~sportfusion.errors.InputError` naming the problem and pointing
+    :class:`~sportfusion.core.errors.InputError` naming the problem and pointing
     to ``--no-time``.  With ``Options.no_time`` the point index is the time
     (``t`` = 0, 1, 2, ... s), the recording has no absolute time and a
     warning says so.  Times without a zone are taken as UTC.
@@ -41,9 +41,9 @@ import gpxpy.gpx
 import numpy as np
 import pyarrow as pa
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.session import Stream
 
 #: GPX ``<fix>`` -> NMEA GGA quality code.
 FIX_TO_QUALITY = {"none": 0, "2d": 1, "3d": 1, "3": 1, "dgps": 2, "pps": 3}

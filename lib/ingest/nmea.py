@@ -64,9 +64,9 @@ import numpy as np
 import pyarrow as pa
 import pynmea2
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.session import Stream
 
 #: Metres per second in one knot.
 KNOT = 1852.0 / 3600.0

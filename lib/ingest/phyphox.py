@@ -53,10 +53,10 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited, split_header, unit_factor
-from sportfusion.session import Stream
 
 #: Radius of the 68 % circle of a circular Gaussian, in per-axis sigmas: sqrt(-2 ln 0.32).
 ACCURACY_68_TO_SIGMA = math.sqrt(-2.0 * math.log(0.32))

@@ -59,9 +59,9 @@ import numpy as np
 import pyarrow as pa
 from pyproj import Transformer
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.session import Stream
 
 #: (UTC date from which it holds, GPS - UTC [s]), from IERS Bulletin C.
 LEAP_SECONDS: tuple[tuple[dt.date, int], ...] = (

@@ -35,11 +35,11 @@ from typing import Any
 
 import numpy as np
 
-from sportfusion.errors import InputError
+from sportfusion.core.errors import InputError
+from sportfusion.core.rotations import quat_from_dcm
+from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited
-from sportfusion.rotations import quat_from_dcm
-from sportfusion.session import Stream
 
 TICK = 1e-4  # s per SampleTimeFine tick
 _RATE = re.compile(r"([0-9.]+)\s*Hz", re.I)

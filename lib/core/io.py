@@ -1,0 +1,158 @@
+"""Read and write tables: bytes <-> :class:`pyarrow.Table`, metadata attached in one place.
+
+Parquet is read whole (pipes cannot seek).  Writing to a file goes through a
+temporary file in the same folder and an atomic rename, so a failed run never
+leaves a half-written output.
+"""
+
+from __future__ import annotations
+
+import io as _io
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from sportfusion.core import meta as _meta
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+
+PARQUET_MAGIC = b"PAR1"
+
+
+def read_bytes(source: str | os.PathLike[str] | BinaryIO | None) -> bytes:
+    """All bytes of a path, a binary stream, or stdin (``None`` or ``"-"``)."""
+    if source is None or source == "-":
+        return sys.stdin.buffer.read()
+    if isinstance(source, (str, os.PathLike)):
+        try:
+            return Path(source).read_bytes()
+        except OSError as exc:
+            raise InputError(f"cannot read {source}: {exc.strerror or exc}") from exc
+    return source.read()
+
+
+def table_from_bytes(data: bytes, *, what: str = "input") -> pa.Table:
+    """Parse Parquet bytes; raise :class:`InputError` for empty or non-Parquet data."""
+    if not data:
+        raise InputError(f"{what} is empty; expected a Parquet table")
+    if len(data) < 12 or data[:4] != PARQUET_MAGIC or data[-4:] != PARQUET_MAGIC:
+        raise InputError(
+            f"{what} is not a Parquet file (no PAR1 magic); expected a table written by a sportfusion tool"
+        )
+    try:
+        return pq.read_table(_io.BytesIO(data), use_threads=False)
+    except (pa.ArrowException, OSError) as exc:
+        raise InputError(f"{what} is not a readable Parquet file ({exc})") from exc
+
+
+def get_meta(table: pa.Table) -> dict[str, Any]:
+    """Decode and validate the ``sportfusion`` metadata of a table."""
+    raw = (table.schema.metadata or {}).get(_meta.KEY)
+    return _meta.decode(raw)
+
+
+def read_table(
+    source: str | os.PathLike[str] | BinaryIO | None = None,
+    *,
+    kind: str | tuple[str, ...] | None = None,
+    what: str | None = None,
+) -> tuple[pa.Table, dict[str, Any]]:
+    """Read a sportfusion table and its validated metadata.
+
+    Parameters
+    ----------
+    source : path, binary stream, or None
+        Where to read from; ``None`` or ``"-"`` means stdin.
+    kind : str or tuple of str, optional
+        Table kind(s) accepted; a session table is also validated
+        (``t`` float64, finite, strictly increasing; known column types).
+    what : str, optional
+        How to name the input in error messages.
+
+    Returns
+    -------
+    table : pyarrow.Table
+    meta : dict
+    """
+    name = what or ("standard input" if source in (None, "-") else str(source))
+    table = table_from_bytes(read_bytes(source), what=name)
+    meta = get_meta(table)
+    kinds = (kind,) if isinstance(kind, str) else kind
+    if kinds is not None and meta["kind"] not in kinds:
+        raise InputError(f"{name} is a '{meta['kind']}' table, expected {' or '.join(kinds)}")
+    schema.require_columns(table, schema.REQUIRED[meta["kind"]], f"a {meta['kind']} table")
+    schema.check_types(table)
+    if meta["kind"] in ("session", "truth"):
+        from sportfusion.core.session import validate_time
+
+        validate_time(table)
+    return table, meta
+
+
+def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
+    """Attach field units and the encoded metadata to a table.
+
+    A field's unit comes from ``meta["units"][name]`` when the session declares
+    one (a magnetometer normalised to the local field has unit ``"1"``), else
+    from the column registry.
+
+    This is the one place metadata is attached: pyarrow drops schema metadata
+    whenever a table is rebuilt from arrays, so every writer goes through here.
+    """
+    overrides = meta.get("units") or {}
+    fields = []
+    for field in table.schema:
+        unit = overrides.get(field.name, schema.unit_of(field.name))
+        md = dict(field.metadata or {})
+        if unit is not None:
+            md[b"unit"] = unit.encode()
+        fields.append(field.with_metadata(md or None))
+    md = dict(table.schema.metadata or {})
+    md.pop(b"pandas", None)
+    md[_meta.KEY] = _meta.encode(meta)
+    return table.cast(pa.schema(fields, metadata=md))
+
+
+def table_to_bytes(table: pa.Table, meta: dict[str, Any]) -> bytes:
+    """Serialise a table with its metadata to Parquet bytes (zstd)."""
+    sink = pa.BufferOutputStream()
+    pq.write_table(finalize(table, meta), sink, compression="zstd")
+    return sink.getvalue().to_pybytes()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_bytes(data: bytes, dest: str | os.PathLike[str] | BinaryIO | None) -> None:
+    """Write bytes to stdout (``None``/``"-"``), a stream, or atomically to a path."""
+    if dest is None or dest == "-":
+        sys.stdout.buffer.write(data)
+        sys.stdout.buffer.flush()
+        return
+    if not isinstance(dest, (str, os.PathLike)):
+        dest.write(data)
+        return
+    path = Path(dest)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; an output file gets the usual permissions
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_table(table: pa.Table, meta: dict[str, Any], dest: str | os.PathLike[str] | BinaryIO | None = None) -> None:
+    """Write a table with its metadata as Parquet to ``dest`` (stdout by default)."""
+    write_bytes(table_to_bytes(table, meta), dest)

@@ -1,0 +1,183 @@
+"""The ``sportfusion`` schema-metadata key: versioned JSON carried by every table.
+
+Layout (GeoParquet's pattern: one key, JSON value)::
+
+    {"version": 1, "kind": "session",
+     "time": {"epoch_utc": "2026-01-01T10:00:00.000000Z" | null},
+     "frame": {"name": "hill", "origin": [lat, lon, h], "azimuth_deg": psi,
+               "axes": "x forward, y right, z down"},
+     "hill": {...}, "events": [...],
+     "provenance": [{"tool": ..., "version": ..., "params": {...}}, ...]}
+
+Only ``version``, ``kind`` and ``provenance`` are mandatory; tools add what
+they know.  Unknown keys are carried through untouched.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+from datetime import UTC, datetime
+from typing import Any
+
+from sportfusion import __version__
+from sportfusion.core.errors import InputError
+from sportfusion.core.schema import KINDS
+
+KEY = b"sportfusion"
+VERSION = 1
+
+
+def new_meta(kind: str = "session", epoch_utc: float | str | None = None) -> dict[str, Any]:
+    """A fresh metadata dict.
+
+    Parameters
+    ----------
+    kind : str
+        Table kind, one of :data:`sportfusion.core.schema.KINDS`.
+    epoch_utc : float or str or None
+        Time origin of column ``t``: Unix seconds, an ISO-8601 UTC string, or
+        None when the recording has no absolute time.
+    """
+    if kind not in KINDS:
+        raise ValueError(f"unknown table kind {kind!r}")
+    return {
+        "version": VERSION,
+        "kind": kind,
+        "time": {"epoch_utc": format_epoch(epoch_utc)},
+        "provenance": [],
+    }
+
+
+def format_epoch(epoch: float | str | None) -> str | None:
+    """Unix seconds or an ISO string -> canonical ISO-8601 UTC string (microseconds, 'Z')."""
+    if epoch is None:
+        return None
+    if isinstance(epoch, str):
+        epoch = parse_epoch(epoch)
+    dt = datetime.fromtimestamp(float(epoch), tz=UTC)
+    return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def parse_epoch(text: str) -> float:
+    """ISO-8601 UTC string -> Unix seconds."""
+    try:
+        dt = datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError as exc:
+        raise InputError(f"metadata key 'time.epoch_utc' is {text!r}, expected an ISO-8601 UTC time") from exc
+    if dt.tzinfo is None:
+        dt = dt.replace(tzinfo=UTC)
+    return dt.timestamp()
+
+
+def epoch_unix(meta: dict[str, Any]) -> float | None:
+    """The session's time origin in Unix seconds, or None if it has none."""
+    text = (meta.get("time") or {}).get("epoch_utc")
+    return None if text is None else parse_epoch(text)
+
+
+def _bad(key: str, why: str) -> InputError:
+    return InputError(f"metadata key '{key}' {why}")
+
+
+def validate_meta(meta: Any) -> dict[str, Any]:
+    """Check a decoded metadata object; return it or raise :class:`InputError` naming the key."""
+    if not isinstance(meta, dict):
+        raise InputError("metadata 'sportfusion' is not a JSON object")
+    if "version" not in meta:
+        raise _bad("version", "is missing")
+    if meta["version"] != VERSION:
+        raise _bad("version", f"is {meta['version']!r}; this sportfusion reads version {VERSION}")
+    if "kind" not in meta:
+        raise _bad("kind", "is missing")
+    if meta["kind"] not in KINDS:
+        raise _bad("kind", f"is {meta['kind']!r}, expected one of {', '.join(KINDS)}")
+    prov = meta.get("provenance")
+    if not isinstance(prov, list):
+        raise _bad("provenance", "is missing or not a list")
+    for i, step in enumerate(prov):
+        if not isinstance(step, dict) or not {"tool", "version", "params"} <= set(step):
+            raise _bad(f"provenance[{i}]", "must be an object with tool, version and params")
+    time = meta.get("time")
+    if time is not None:
+        if not isinstance(time, dict) or "epoch_utc" not in time:
+            raise _bad("time", "must be an object with key epoch_utc")
+        if time["epoch_utc"] is not None:
+            if not isinstance(time["epoch_utc"], str):
+                raise _bad("time.epoch_utc", "must be an ISO-8601 string or null")
+            parse_epoch(time["epoch_utc"])
+    frame = meta.get("frame")
+    if frame is not None:
+        if not isinstance(frame, dict):
+            raise _bad("frame", "must be an object")
+        for k in ("name", "origin", "azimuth_deg"):
+            if k not in frame:
+                raise _bad(f"frame.{k}", "is missing")
+        origin = frame["origin"]
+        if (
+            not isinstance(origin, list)
+            or len(origin) != 3
+            or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in origin)
+        ):
+            raise _bad("frame.origin", "must be [lat_deg, lon_deg, h_m]")
+        if not isinstance(frame["azimuth_deg"], (int, float)):
+            raise _bad("frame.azimuth_deg", "must be a number (deg)")
+    units = meta.get("units")
+    if units is not None and (not isinstance(units, dict) or not all(isinstance(v, str) for v in units.values())):
+        raise _bad("units", "must map column names to unit strings")
+    events = meta.get("events")
+    if events is not None and not isinstance(events, list):
+        raise _bad("events", "must be a list")
+    return meta
+
+
+def decode(raw: bytes | None) -> dict[str, Any]:
+    """Decode and validate the raw metadata value of key ``sportfusion``."""
+    if raw is None:
+        raise InputError("the table has no 'sportfusion' metadata; expected a table written by a sportfusion tool")
+    try:
+        meta = json.loads(raw)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"metadata 'sportfusion' is not valid JSON ({exc})") from exc
+    return validate_meta(meta)
+
+
+def encode(meta: dict[str, Any]) -> bytes:
+    """Validate and encode metadata as compact UTF-8 JSON."""
+    validate_meta(meta)
+    return json.dumps(meta, separators=(",", ":"), allow_nan=False, default=_jsonable).encode()
+
+
+def _jsonable(obj: Any) -> Any:
+    try:
+        import numpy as np
+
+        if isinstance(obj, np.generic):
+            return obj.item()
+        if isinstance(obj, np.ndarray):
+            return obj.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(obj, (set, tuple)):
+        return list(obj)
+    return str(obj)
+
+
+def add_provenance(meta: dict[str, Any], tool: str, params: dict[str, Any]) -> dict[str, Any]:
+    """Return a copy of ``meta`` with one provenance step ``{tool, version, params}`` appended."""
+    out = copy.deepcopy(meta)
+    clean = _finite(json.loads(json.dumps(params, default=_jsonable, allow_nan=True)))
+    out.setdefault("provenance", []).append({"tool": tool, "version": __version__, "params": clean})
+    return out
+
+
+def _finite(obj: Any) -> Any:
+    """Replace non-finite floats (not valid JSON) by None, recursively."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_finite(v) for v in obj]
+    return obj

@@ -1,0 +1,317 @@
+"""The column registry: name -> Arrow type, unit and meaning.
+
+Every column that flows between the tools is described here once.  The write
+helper in :mod:`sportfusion.core.io` attaches ``{"unit": ...}`` to each field from
+this registry, and :func:`check_types` refuses a table whose known columns
+carry the wrong type.  Columns a user adds that are not registered pass
+through untouched.
+
+Two prefixes are resolved automatically: ``std_<name>`` (1-sigma of
+``<name>``, same unit) and ``true_<name>`` (truth from ``simulate``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core.errors import InputError
+
+F64 = pa.float64()
+I16 = pa.int16()
+I32 = pa.int32()
+I64 = pa.int64()
+STR = pa.string()
+BOOL = pa.bool_()
+
+
+@dataclass(frozen=True)
+class Column:
+    """One registered column.
+
+    Attributes
+    ----------
+    name : str
+        Column name as it appears in the table.
+    type : pyarrow.DataType
+        Arrow type the column must have.
+    unit : str
+        SI unit (``"1"`` for dimensionless, ``""`` for text/flags).
+    meaning : str
+        One line describing the column.
+    """
+
+    name: str
+    type: pa.DataType
+    unit: str
+    meaning: str
+
+
+COLUMNS: dict[str, Column] = {}
+
+
+def register(name: str, type_: pa.DataType, unit: str, meaning: str) -> Column:
+    """Add (or replace) a column in the registry and return it."""
+    col = Column(name, type_, unit, meaning)
+    COLUMNS[name] = col
+    return col
+
+
+def _xyz(prefix: str, unit: str, meaning: str, axes: str = "xyz") -> None:
+    for a in axes:
+        register(f"{prefix}_{a}" if prefix else a, F64, unit, f"{meaning}, {a} axis")
+
+
+register("t", F64, "s", "time since time.epoch_utc")
+# IMU, body frame
+_xyz("acc", "m/s^2", "specific force in the body (sensor) frame")
+_xyz("gyr", "rad/s", "angular rate in the body (sensor) frame")
+_xyz("mag", "uT", "magnetic field in the body frame (unit '1' when normalised)")
+register("pressure", F64, "Pa", "barometric pressure")
+for _i in range(4):
+    register(f"dev_q{_i}", F64, "1", f"device's own orientation quaternion, component {_i} (scalar first)")
+# GNSS
+register("lat", F64, "deg", "WGS84 latitude")
+register("lon", F64, "deg", "WGS84 longitude")
+register("h", F64, "m", "WGS84 ellipsoidal height")
+register("h_msl", F64, "m", "height above mean sea level as reported by the receiver")
+for _a, _m in (("n", "north"), ("e", "east"), ("d", "down")):
+    register(f"vel_{_a}", F64, "m/s", f"GNSS velocity, {_m} (NED)")
+register("gnss_fix", I16, "1", "fix quality, NMEA GGA codes (0 invalid, 1 GPS, 2 DGPS, 4 RTK fixed, 5 RTK float, 6 DR)")
+register("gnss_sats", I16, "1", "number of satellites used")
+register("gnss_hdop", F64, "1", "horizontal dilution of precision")
+register("gnss_sigma_h", F64, "m", "horizontal position 1-sigma (per axis)")
+register("gnss_sigma_v", F64, "m", "vertical position 1-sigma")
+register("gnss_sigma_n", F64, "m", "north position 1-sigma")
+register("gnss_sigma_e", F64, "m", "east position 1-sigma")
+for _a in ("ne", "eu", "un"):
+    register(f"gnss_sd{_a}", F64, "m", f"signed square root of the {_a} position covariance (RTKLIB sd{_a})")
+register("gnss_speed", F64, "m/s", "speed over ground as reported by the receiver")
+register("gnss_course", F64, "deg", "course over ground, clockwise from true north")
+register("gnss_age", F64, "s", "age of differential corrections")
+register("gnss_ratio", F64, "1", "ambiguity ratio-test value")
+register("rtk_q", I16, "1", "RTKLIB solution quality Q (1 fix, 2 float, 3 sbas, 4 dgps, 5 single, 6 ppp, 7 dr)")
+_xyz("gnss", "m", "GNSS position in the local frame")
+# estimates
+_xyz("", "m", "position in the local frame")
+_xyz("v", "m/s", "velocity in the local frame")
+_xyz("a", "m/s^2", "kinematic acceleration in the local frame")
+for _i in range(4):
+    register(f"q{_i}", F64, "1", f"attitude quaternion q_BO, component {_i} (scalar first)")
+register("roll", F64, "rad", "roll angle")
+register("pitch", F64, "rad", "pitch angle")
+register("yaw", F64, "rad", "yaw angle (azimuth from north)")
+register("speed", F64, "m/s", "speed")
+register("distance", F64, "m", "curvilinear distance along the path")
+for _s in ("gyr", "acc", "mag"):
+    _xyz(f"bias_{_s}", COLUMNS[f"{_s}_x"].unit, f"estimated {_s} bias")
+_xyz("scale_mag", "1", "estimated magnetometer scale error")
+# events
+register("event", STR, "", "event name at its instant (takeoff, touchdown, gate, ...), else null")
+register("grip", BOOL, "", "hand is gripping (low-motion window)")
+register("imu_saturated", BOOL, "", "IMU sample exceeded the sensor range")
+register("gate_b_peak", F64, "1", "peak magnetic intensity at a gate crossing (normalised)")
+register("gate_distance", F64, "m", "distance to the gate magnet at the crossing")
+register("turn", STR, "", "turn direction at a gate (L or R)")
+# other table kinds
+register("route", STR, "", "route (track) identifier")
+register("hold", I32, "1", "hold index on the route")
+register("route_hold", I32, "1", "the hold's own index in its route file (bouldering dataset hold maps)")
+# climbing (pf-holds)
+register("hold_id", I32, "1", "hold number of the most likely particle cluster at a grip (-1: elsewhere)")
+register("cluster_prob", F64, "1", "probability of the most likely particle cluster (pf-holds)")
+register("gate", I32, "1", "gate number along the course")
+# ski racing from GNSS (spline-smooth, dmc-attitude)
+register(
+    "course", F64, "rad", "azimuth of the horizontal velocity (spline tangent), clockwise from north, in (-pi, pi]"
+)
+register("spline_filled", BOOL, "", "position bridged by the spline across a GNSS data gap (no measured position near)")
+register(
+    "quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)"
+)
+register("dmc_singular", BOOL, "", "DMC attitude unreliable: specific force near free fall or parallel to the field")
+for _a in "xyz":  # DESIGN names vx vy vz / ax ay az (the _xyz helper above registers v_x, a_x)
+    register(f"v{_a}", F64, "m/s", f"velocity in the local frame, {_a} axis")
+    register(f"a{_a}", F64, "m/s^2", f"kinematic acceleration in the local frame, {_a} axis")
+    register(
+        f"a{_a}_dmc", F64, "m/s^2", f"kinematic acceleration from the DMC attitude and specific force, local {_a} axis"
+    )
+# ski-jump truth/evaluation (simulate skijump, evaluate)
+register("jump_length", F64, "m", "jump length along the landing profile from the knoll base F")
+register("phase", STR, "", "motion phase (inrun, flight, outrun, all) or a jump label in a summary")
+register("stat", STR, "", "statistic of a summary row (rms, mean, max, error)")
+register("samples", I64, "1", "number of samples behind a summary row")
+register("rot_angle", F64, "rad", "rotation angle between estimated and true attitude")
+register("takeoff_dt", F64, "s", "take-off timing error, estimate minus truth")
+register("touchdown_dt", F64, "s", "touch-down timing error, estimate minus truth")
+register("jump_length_error", F64, "m", "jump length error, estimate minus truth")
+register("clearance", F64, "m", "height of the sensor above the hill profile, along the profile normal")
+# video reference for the jump length (video-jumplength)
+register("video", STR, "", "video file the row was read from")
+register("video_fps", F64, "1/s", "frame rate of the video")
+register("touchdown_frame", I32, "1", "first video frame (0-based) with both skis on the snow")
+register("touchdown_time", F64, "s", "touch-down time after the video's first frame (sub-frame)")
+register("touchdown_speed", F64, "m/s", "speed of the skis along the landing slope at the touch-down")
+register("confidence", F64, "1", "probability that the video jump length is within 0.5 m (paper's reading accuracy)")
+for _a in "xyz":
+    register(
+        f"mag_pred_{_a}",
+        F64,
+        "uT",
+        f"magnetometer predicted by the smoother's estimate (skijump eq 50), body {_a} axis",
+    )
+# batch summary (python -m sportfusion.batch)
+register("session", STR, "", "session name (its folder in a sessions folder)")
+register("sport", STR, "", "sport of a session: skijump, skirace, gates, climbing")
+register("status", STR, "", "outcome of a session's pipeline: ok or failed")
+register("error", STR, "", "the error line of a failed session")
+register("duration", F64, "s", "time span of a session's result table")
+register("max_speed", F64, "m/s", "largest estimated speed in a session")
+register("jumps", I64, "1", "number of jumps found in a session")
+register("video_jump_length", F64, "m", "jump length read from the landing video (video-jumplength)")
+register("pos_rms", F64, "m", "3-D RMS position error against the truth")
+register("vel_rms", F64, "m/s", "3-D RMS velocity error against the truth")
+
+# alpine racing with magnet gates (gate-anchor)
+register("gate_anchor", BOOL, "", "the gate crossing was used as an anchor point (position update)")
+register("turn_v_in", F64, "m/s", "speed at the turn switch before the gate (turn entrance)")
+register("turn_v_out", F64, "m/s", "speed at the turn switch after the gate (turn exit)")
+register("turn_d_in", F64, "m", "distance from the turn-entrance switch position to the gate")
+register("turn_d_out", F64, "m", "distance from the turn-exit switch position to the gate")
+register("turn_d_cross", F64, "m", "distance from the estimated position at the crossing to the gate")
+register("turn_length", F64, "m", "3-D path length of the turn, switch to switch")
+# run-vs-run comparison (compare-runs; skiracing-splines Figure 9), one row per run and common gate
+register("run", STR, "", "run label (the first run of a comparison is the reference)")
+register("crossing_t", F64, "s", "gate crossing time on the run's own clock (its t)")
+register("crossing_source", STR, "", "how the crossing was found: event (gate event row) or closest (closest approach)")
+register("acc_time", F64, "s", "time since the first common gate")
+register("section_time", F64, "s", "time from the previous common gate (gate-to-gate)")
+register("path_distance", F64, "m", "distance integrated along the trajectory since the first common gate")
+register("section_distance", F64, "m", "distance along the trajectory from the previous common gate")
+register("gate_speed", F64, "m/s", "instantaneous speed at the gate crossing")
+register("turn_entry_speed", F64, "m/s", "speed at the turn switch before the gate (start of the turn)")
+register("turn_exit_speed", F64, "m/s", "speed at the turn switch after the gate (end of the turn)")
+register("turn_length", F64, "m", "path length of the turn, from switch to switch")
+for _c in (
+    "acc_time",
+    "section_time",
+    "path_distance",
+    "section_distance",
+    "gate_speed",
+    "turn_entry_speed",
+    "turn_exit_speed",
+    "turn_length",
+):
+    register(f"{_c}_diff", F64, COLUMNS[_c].unit, f"{COLUMNS[_c].meaning}: this run minus the reference")
+register("speed_diff", F64, "m/s", "speed at the same place along the course: this run minus the reference")
+register("ref_jump_length", F64, "m", "reference jump length (e.g. read from a video, L_VR of skijump Table 7)")
+
+#: Table kinds and the columns each must have.
+REQUIRED: dict[str, tuple[str, ...]] = {
+    "session": ("t",),
+    "truth": ("t",),
+    "jumps": (),
+    "holds": ("route", "hold", "x", "y", "z"),
+    "gates": ("gate",),
+    "summary": (),
+}
+KINDS = tuple(REQUIRED)
+
+
+def lookup(name: str) -> Column | None:
+    """Return the registered column for ``name``, resolving ``std_``/``true_`` prefixes."""
+    if name in COLUMNS:
+        return COLUMNS[name]
+    for prefix in ("true_", "std_"):
+        if name.startswith(prefix):
+            base = lookup(name[len(prefix) :])
+            if base is not None:
+                return Column(name, base.type, base.unit, f"{prefix[:-1]} of {base.name}")
+    return None
+
+
+def unit_of(name: str) -> str | None:
+    """Unit of a column, or None for an unregistered column."""
+    col = lookup(name)
+    return None if col is None else col.unit
+
+
+def check_types(table: pa.Table) -> None:
+    """Raise :class:`InputError` naming the first known column whose type is wrong."""
+    for field in table.schema:
+        col = lookup(field.name)
+        if col is None:
+            continue
+        ok = field.type == col.type
+        if not ok and pa.types.is_integer(col.type) and pa.types.is_integer(field.type):
+            ok = True  # any integer width is accepted for counters and codes
+        if not ok:
+            raise InputError(f"column '{field.name}' has type {field.type}, expected {col.type} ({col.meaning})")
+
+
+def require_columns(table: pa.Table, names: tuple[str, ...] | list[str], what: str = "") -> None:
+    """Raise :class:`InputError` listing the required columns that are missing."""
+    missing = [n for n in names if n not in table.column_names]
+    if missing:
+        need = f" for {what}" if what else ""
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}{need}; the table has {', '.join(table.column_names) or 'no columns'}"
+        )
+
+
+def to_arrow(name: str, values: object) -> pa.Array:
+    """Build an Arrow array for a column, cast to its registered type.
+
+    NaN in a float column becomes null (a sensor that did not sample).
+    Unregistered names keep the type Arrow infers.
+    """
+    col = lookup(name)
+    if isinstance(values, pa.ChunkedArray):
+        values = values.combine_chunks()
+    if isinstance(values, pa.Array):
+        arr = values
+    else:
+        a = np.asarray(values)
+        if a.dtype.kind == "f":
+            arr = pa.array(a, mask=np.isnan(a))
+        elif a.dtype.kind == "O":
+            arr = pa.array(list(a), from_pandas=True)
+        else:
+            arr = pa.array(a)
+    if col is not None and arr.type != col.type:
+        if pa.types.is_floating(col.type) and arr.type == pa.null():
+            arr = pa.nulls(len(arr), col.type)
+        arr = arr.cast(col.type)
+    return arr
+
+
+def floats(table: pa.Table, name: str) -> np.ndarray:
+    """A numeric column as a float64 numpy array, nulls as NaN."""
+    col = table.column(name).cast(F64).fill_null(np.nan)
+    return np.asarray(col.to_numpy(), dtype=np.float64)
+
+
+# rts-smooth (skijump ERTS smoother): constraint residuals at the smoothed state, forward-only estimates
+register("c_q", F64, "1", "quaternion norm constraint |q| - 1 at the smoothed state (skijump eq 51)")
+register(
+    "c_v_ir", F64, "m", "in-run vertical constraint z - z_IR(x) at the smoothed state (eq 32), null where inactive"
+)
+register("c_h_ir", F64, "m", "in-run lateral constraint y at the smoothed state (eq 33), null where inactive")
+register(
+    "c_v_la",
+    F64,
+    "m",
+    "landing-area vertical constraint z - z_LA(x) at the smoothed state (eq 34), null where inactive",
+)
+for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
+    register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
+# jump-metrics (jumps table, one row per jump)
+register("jump", I32, "1", "jump number in the session (0-based)")
+register("t_takeoff", F64, "s", "take-off time on the session clock")
+register("t_touchdown", F64, "s", "touch-down time on the session clock")
+register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")
+register("flight_time", F64, "s", "touch-down minus take-off time")
+_xyz("touchdown", "m", "estimated sensor position at the touch-down, hill frame")
+register("max_height", F64, "m", "largest vertical height of the sensor above the landing profile in flight")

@@ -1,0 +1,161 @@
+"""Session tables: one row per instant, the union of all sensors' sample times.
+
+A sensor's columns are null where that sensor did not sample.  Nothing is
+resampled or dropped: :func:`merge_streams` places every sample of every
+stream on the union of their times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+
+
+def validate_time(table: pa.Table) -> np.ndarray:
+    """Check column ``t``: float64, no nulls, finite, strictly increasing. Return it."""
+    schema.require_columns(table, ("t",), "a session table")
+    col = table.column("t")
+    if col.type != pa.float64():
+        raise InputError(f"column 't' has type {col.type}, expected float64 seconds")
+    if col.null_count:
+        raise InputError(f"column 't' has {col.null_count} null value(s), expected a time on every row")
+    t = col.to_numpy()
+    bad = ~np.isfinite(t)
+    if bad.any():
+        raise InputError(f"column 't' is not finite at row {int(np.argmax(bad))}, expected finite seconds")
+    if t.size > 1:
+        step = np.diff(t)
+        if (step <= 0).any():
+            i = int(np.argmax(step <= 0))
+            raise InputError(
+                f"column 't' is not strictly increasing at row {i + 1} "
+                f"({t[i]:.6f} s then {t[i + 1]:.6f} s), expected strictly increasing times"
+            )
+    return t
+
+
+@dataclass
+class Stream:
+    """One sensor's samples on its own time base.
+
+    Attributes
+    ----------
+    name : str
+        Sensor name used in messages (``"accelerometer"``, ``"nmea"``).
+    t : numpy.ndarray
+        Sample times [s] on the session clock.
+    columns : dict
+        Column name -> values (numpy array, list or pyarrow array), one per sample.
+    """
+
+    name: str
+    t: np.ndarray
+    columns: dict[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=np.float64)
+        for k, v in self.columns.items():
+            if len(v) != len(self.t):  # type: ignore[arg-type]
+                raise InputError(f"{self.name}: column '{k}' has {len(v)} values for {len(self.t)} times")  # type: ignore[arg-type]
+
+
+@dataclass
+class MergeReport:
+    """What :func:`merge_streams` did: rows per stream and duplicates folded."""
+
+    rows: dict[str, int] = field(default_factory=dict)
+    duplicates: dict[str, int] = field(default_factory=dict)
+
+
+def _dedupe(stream: Stream, report: MergeReport) -> Stream:
+    """Sort a stream by time and fold rows with identical time and identical values.
+
+    Two different samples at one instant cannot both live on one row; that is
+    an error, not something to drop silently.
+    """
+    t = stream.t
+    if not np.isfinite(t).all():
+        raise InputError(f"{stream.name}: {int((~np.isfinite(t)).sum())} sample(s) without a valid time")
+    order = np.argsort(t, kind="stable")
+    cols = {k: schema.to_arrow(k, v).take(pa.array(order)) for k, v in stream.columns.items()}
+    t = t[order]
+    dup = np.flatnonzero(np.diff(t) == 0) + 1
+    if dup.size:
+        keep = np.ones(t.size, bool)
+        for i in dup:
+            same = all(c[int(i)].equals(c[int(i) - 1]) for c in cols.values())
+            if not same:
+                raise InputError(
+                    f"{stream.name}: two different samples at t = {t[i]:.6f} s; "
+                    "expected one sample per instant per sensor"
+                )
+            keep[i] = False
+        report.duplicates[stream.name] = int(dup.size)
+        idx = pa.array(np.flatnonzero(keep))
+        cols = {k: c.take(idx) for k, c in cols.items()}
+        t = t[keep]
+    return Stream(stream.name, t, cols)
+
+
+def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
+    """Merge sensor streams into one session table on the union of their times.
+
+    Samples of different streams at exactly the same time share a row.  Two
+    streams may not both provide a column at the same instant.  Repeated
+    identical samples within a stream (GPS loggers repeat fixes) are folded and
+    counted in the report; conflicting repeats are an error.
+
+    Returns
+    -------
+    table : pyarrow.Table
+        Column ``t`` first, then every stream's columns in first-seen order.
+    report : MergeReport
+    """
+    report = MergeReport()
+    clean = [_dedupe(s, report) for s in streams if len(s.t)]
+    if not clean:
+        raise InputError("no samples found in the input(s)")
+    t_all = np.unique(np.concatenate([s.t for s in clean]))
+    n = t_all.size
+    names: list[str] = []
+    for s in clean:
+        names += [k for k in s.columns if k not in names and k != "t"]
+    out: dict[str, pa.Array] = {"t": pa.array(t_all, type=pa.float64())}
+    for name in names:
+        owners = [s for s in clean if name in s.columns]
+        typ = schema.lookup(name).type if schema.lookup(name) else owners[0].columns[name].type  # type: ignore[union-attr]
+        idx_all = np.full(n, -1, dtype=np.int64)
+        chunks = []
+        offset = 0
+        for s in owners:
+            rows = np.searchsorted(t_all, s.t)
+            if (idx_all[rows] >= 0).any():
+                clash = t_all[rows[idx_all[rows] >= 0][0]]
+                raise InputError(
+                    f"column '{name}' comes from two inputs at t = {clash:.6f} s; rename one or shift it with --offset"
+                )
+            idx_all[rows] = offset + np.arange(s.t.size)
+            chunks.append(s.columns[name].cast(typ))  # type: ignore[union-attr]
+            offset += s.t.size
+        values = pa.concat_arrays(chunks) if len(chunks) > 1 else chunks[0]
+        out[name] = values.take(pa.array(idx_all, mask=idx_all < 0))
+    for s in clean:
+        report.rows[s.name] = int(s.t.size)
+    return pa.table(out), report
+
+
+def with_columns(table: pa.Table, columns: Mapping[str, object]) -> pa.Table:
+    """Add or replace columns (registered types applied), keeping every other column."""
+    for name, values in columns.items():
+        arr = schema.to_arrow(name, values)
+        if name in table.column_names:
+            table = table.set_column(table.column_names.index(name), name, arr)
+        else:
+            table = table.append_column(name, arr)
+    return table

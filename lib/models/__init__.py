@@ -1,1 +1,0 @@
-"""State-space models for the estimators (continuous-time kinematics, measurement functions)."""

@@ -1,0 +1,302 @@
+"""Ski-jump take-off and touch-down from the accelerometer (skijump Appendix A).
+
+The method of the paper, with the errata applied:
+
+1. Only instants where the GNSS speed ``V_GPS = |v_GPS|`` exceeds ``min_speed``
+   (10 m/s) are analysed.  The speed is interpolated linearly from the GNSS
+   epochs to the IMU samples, never across a GNSS gap longer than
+   ``max_gnss_gap``.  Each contiguous stretch above the threshold is one
+   window, analysed on its own, so a session of several jumps gives several
+   jumps.
+2. ``a_norm = |a_B,acc|`` per IMU sample.  ``t_peak1`` is its maximum in the
+   window (eq A1); ``t_peak2`` the maximum among the samples *more* than
+   ``min_separation`` (1.5 s) away from ``t_peak1`` (eq A2 as the text means it;
+   the printed condition is the wrong way round).
+3. ``t_TO = min(t_peak1, t_peak2)`` (eq A3) and
+   ``t_TD = max(t_peak1, t_peak2) - touchdown_offset`` (0.05 s, eq A4).
+
+Appendix A always returns two peaks; to avoid inventing a jump where there is
+none, a window is accepted only if, in addition, the second peak is a local
+maximum no further than ``max_separation`` from the first, both peaks reach
+``min_peak``, and the median ``a_norm`` between them (trimmed by ``flight_trim``
+at each end) stays below ``max_flight_acc`` (9 m/s^2) -- in flight the
+accelerometer measures only the aerodynamic force, below 1 g (about 0.5 g on a
+normal hill, up to about 0.85 g in ski flying), while standing or skiing on
+gentle terrain it measures about 1 g.  A rejected window is reported with the
+reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.events import set_events, true_runs
+
+JUMP_EVENTS = ("takeoff", "touchdown")
+
+
+@dataclass(frozen=True)
+class JumpParams:
+    """Parameters of the take-off/touch-down detector (defaults: Appendix A).
+
+    Attributes
+    ----------
+    min_speed : float
+        GNSS speed above which a jump is searched [m/s] (10, Appendix A).
+    min_separation : float
+        The two peaks are more than this apart [s] (1.5, eq A2).
+    touchdown_offset : float
+        Touch-down is this long before the landing peak [s] (0.05, eq A4).
+    max_separation : float
+        Longest plausible flight [s]; the second peak is searched within it.
+    min_peak : float
+        Both peaks must reach this specific force [m/s^2].
+    max_flight_acc : float
+        Largest median specific force between the peaks [m/s^2] (flight check, below 1 g).
+    flight_trim : float
+        Time trimmed at each end of the flight before the median [s].
+    max_gnss_gap : float
+        GNSS speed is not interpolated across gaps longer than this [s].
+    """
+
+    min_speed: float = 10.0
+    min_separation: float = 1.5
+    touchdown_offset: float = 0.05
+    max_separation: float = 10.0
+    min_peak: float = 15.0
+    max_flight_acc: float = 9.0
+    flight_trim: float = 0.3
+    max_gnss_gap: float = 2.0
+
+
+@dataclass
+class Jump:
+    """One detected jump (times in the session's seconds)."""
+
+    takeoff: float
+    touchdown: float
+    t_peak_takeoff: float
+    t_peak_landing: float
+    peak_takeoff: float
+    peak_landing: float
+    flight_acc: float
+    window: tuple[float, float]
+
+
+@dataclass
+class JumpDetection:
+    """Result of :func:`detect_jumps`: the jumps, and why other windows were rejected."""
+
+    jumps: list[Jump] = field(default_factory=list)
+    rejected: list[dict[str, Any]] = field(default_factory=list)
+    windows: int = 0
+
+    def summary(self, params: JumpParams) -> dict[str, Any]:
+        """JSON-ready summary for the metadata."""
+        return {
+            "kind": "jump",
+            "method": "skijump Appendix A (errata: peaks more than min_separation apart)",
+            "params": asdict(params),
+            "speed_windows": self.windows,
+            "jumps": [asdict(j) for j in self.jumps],
+            "rejected": self.rejected,
+        }
+
+    def message(self) -> str:
+        """One line saying what was found."""
+        if self.jumps:
+            parts = [
+                f"take-off {j.takeoff:.2f} s, touch-down {j.touchdown:.2f} s (flight {j.touchdown - j.takeoff:.2f} s)"
+                for j in self.jumps
+            ]
+            return f"{len(self.jumps)} jump(s): " + "; ".join(parts)
+        if not self.windows:
+            return "no jump found: the GNSS speed never exceeds the speed threshold"
+        reasons = "; ".join(f"{r['window'][0]:.1f}-{r['window'][1]:.1f} s: {r['reason']}" for r in self.rejected)
+        return f"no jump found in {self.windows} fast window(s) ({reasons})"
+
+
+def speed_at(t: np.ndarray, t_gnss: np.ndarray, speed: np.ndarray, max_gap: float) -> np.ndarray:
+    """GNSS speed linearly interpolated to times ``t`` [s]; NaN outside the GNSS span or across gaps > ``max_gap``."""
+    ok = np.isfinite(speed) & np.isfinite(t_gnss)
+    tg, vg = t_gnss[ok], speed[ok]
+    out = np.full(t.shape, np.nan)
+    if tg.size < 2:
+        return out
+    j = np.searchsorted(tg, t)
+    inside = (j > 0) & (j < tg.size)
+    jj = np.clip(j, 0, tg.size - 1)
+    exact = tg[jj] == t
+    lo, hi = np.clip(j - 1, 0, tg.size - 1), jj
+    gap_ok = (tg[hi] - tg[lo]) <= max_gap
+    use = inside & gap_ok
+    out[use] = np.interp(t[use], tg, vg)
+    out[exact] = vg[jj[exact]]
+    return out
+
+
+def detect_jumps(
+    t: np.ndarray, acc_norm: np.ndarray, speed: np.ndarray, params: JumpParams | None = None
+) -> JumpDetection:
+    """Take-off and touch-down of every jump (Appendix A, see the module text).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        IMU sample times [s], increasing.
+    acc_norm : ndarray, shape (n,)
+        Norm of the measured specific force [m/s^2].
+    speed : ndarray, shape (n,)
+        GNSS speed at those times [m/s] (NaN where unknown), e.g. from :func:`speed_at`.
+    params : JumpParams, optional
+
+    Returns
+    -------
+    JumpDetection
+    """
+    p = params or JumpParams()
+    det = JumpDetection()
+    fast = np.isfinite(speed) & (speed > p.min_speed) & np.isfinite(acc_norm)
+    for i0, i1 in true_runs(fast):
+        det.windows += 1
+        tw, aw = t[i0:i1], acc_norm[i0:i1]
+        win = (float(tw[0]), float(tw[-1]))
+        k1 = int(np.argmax(aw))
+        dt = np.abs(tw - tw[k1])
+        cand = (dt > p.min_separation) & (dt <= p.max_separation)
+        if not cand.any():
+            det.rejected.append(
+                {
+                    "window": win,
+                    "reason": f"no second acceleration peak more than {p.min_separation:g} s from the first",
+                }
+            )
+            continue
+        k2 = int(np.flatnonzero(cand)[np.argmax(aw[cand])])
+        local = (k2 == 0 or aw[k2] >= aw[k2 - 1]) and (k2 == aw.size - 1 or aw[k2] >= aw[k2 + 1])
+        if not local or (k2 > 0 and not cand[k2 - 1]) or (k2 < aw.size - 1 and not cand[k2 + 1]):
+            det.rejected.append({"window": win, "reason": "the second largest acceleration is not a peak"})
+            continue
+        ka, kb = sorted((k1, k2))
+        if min(aw[ka], aw[kb]) < p.min_peak:
+            det.rejected.append(
+                {
+                    "window": win,
+                    "reason": f"peaks {aw[ka]:.1f} and {aw[kb]:.1f} m/s^2, below min_peak {p.min_peak:g} m/s^2",
+                }
+            )
+            continue
+        mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
+        if not mid.any():
+            mid = np.zeros(tw.shape, bool)
+            mid[ka + (kb - ka) // 2] = True
+        flight = float(np.median(aw[mid]))
+        if flight > p.max_flight_acc:
+            det.rejected.append(
+                {
+                    "window": win,
+                    "reason": f"no flight between the peaks (median |a| {flight:.1f} m/s^2 > {p.max_flight_acc:g})",
+                }
+            )
+            continue
+        det.jumps.append(
+            Jump(
+                takeoff=float(tw[ka]),
+                touchdown=float(tw[kb] - p.touchdown_offset),
+                t_peak_takeoff=float(tw[ka]),
+                t_peak_landing=float(tw[kb]),
+                peak_takeoff=float(aw[ka]),
+                peak_landing=float(aw[kb]),
+                flight_acc=flight,
+                window=win,
+            )
+        )
+    return det
+
+
+def gnss_speed(table: pa.Table) -> tuple[np.ndarray, np.ndarray]:
+    """GNSS epochs and speed [m/s] of a session.
+
+    From ``vel_n vel_e`` (and ``vel_d`` where present: the 3-D speed of
+    Appendix A), else from the differences of ``gnss_x gnss_y gnss_z``.
+
+    Returns
+    -------
+    t : ndarray
+        Times [s] of the rows with a GNSS speed.
+    speed : ndarray
+        Speed [m/s].
+    """
+    t = schema.floats(table, "t")
+    names = table.column_names
+    if "vel_n" in names and "vel_e" in names:
+        vn, ve = schema.floats(table, "vel_n"), schema.floats(table, "vel_e")
+        vd = schema.floats(table, "vel_d") if "vel_d" in names else np.zeros_like(vn)
+        vd = np.where(np.isfinite(vd), vd, 0.0)
+        ok = np.isfinite(vn) & np.isfinite(ve)
+        return t[ok], np.sqrt(vn[ok] ** 2 + ve[ok] ** 2 + vd[ok] ** 2)
+    if all(c in names for c in ("gnss_x", "gnss_y")):
+        cols = [schema.floats(table, c) for c in ("gnss_x", "gnss_y", "gnss_z") if c in names]
+        pos = np.stack(cols, axis=-1)
+        ok = np.isfinite(pos).all(axis=1)
+        tg, pg = t[ok], pos[ok]
+        if tg.size < 3:
+            return tg[:0], tg[:0]
+        v = np.gradient(pg, tg, axis=0)
+        return tg, np.linalg.norm(v, axis=1)
+    raise InputError(
+        "missing column(s) vel_n, vel_e (or gnss_x, gnss_y, gnss_z) for the GNSS speed of jump detection; "
+        f"the table has {', '.join(names)}"
+    )
+
+
+def detect_jump_table(table: pa.Table, params: JumpParams | None = None) -> JumpDetection:
+    """:func:`detect_jumps` on a session table (``acc_x acc_y acc_z`` and GNSS velocity or positions)."""
+    p = params or JumpParams()
+    schema.require_columns(table, ("acc_x", "acc_y", "acc_z"), "jump detection")
+    t = schema.floats(table, "t")
+    acc = np.stack([schema.floats(table, c) for c in ("acc_x", "acc_y", "acc_z")], axis=-1)
+    imu = np.isfinite(acc).all(axis=1)
+    if not imu.any():
+        raise InputError("columns acc_x, acc_y, acc_z hold no samples; expected accelerometer data")
+    t_g, v_g = gnss_speed(table)
+    if t_g.size < 2:
+        raise InputError("the session has fewer than 2 GNSS velocity samples; expected a GNSS track for the speed")
+    ti = t[imu]
+    return detect_jumps(ti, np.linalg.norm(acc[imu], axis=1), speed_at(ti, t_g, v_g, p.max_gnss_gap), p)
+
+
+def jump_events(det: JumpDetection) -> list[tuple[str, float]]:
+    """(name, t) of the detected take-offs and touch-downs, in time order."""
+    out = []
+    for j in det.jumps:
+        out += [("takeoff", j.takeoff), ("touchdown", j.touchdown)]
+    return out
+
+
+def detect_jump_events(table: pa.Table, params: JumpParams | None = None) -> tuple[pa.Table, dict[str, Any], str]:
+    """Detect the jumps of a session and write their ``takeoff``/``touchdown`` rows into ``event``.
+
+    Returns
+    -------
+    table : pyarrow.Table
+        The input with the ``event`` column set (unchanged when no jump is found:
+        no events are invented).
+    summary : dict
+        For the metadata's ``events`` list (:meth:`JumpDetection.summary`).
+    message : str
+        One line saying what was found or why nothing was.
+
+    The numbers of each jump (take-off, touch-down, peak times and values) are
+    in ``summary["jumps"]``; the metadata's ``events`` list is the place for it.
+    """
+    p = params or JumpParams()
+    det = detect_jump_table(table, p)
+    out = set_events(table, jump_events(det), replace=JUMP_EVENTS) if det.jumps else table
+    return out, det.summary(p), det.message()

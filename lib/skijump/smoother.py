@@ -1,0 +1,473 @@
+"""``rts-smooth``: the ski-jump trajectory by the extended RTS smoother with hill constraints (skijump §3-4).
+
+The model is :mod:`sportfusion.skijump.model` (eqs 22, 35-51); the smoother
+is :func:`sportfusion.estimators.kalman.ekf_rts`.  Steps are the IMU samples; GNSS and
+magnetometer samples update the step they fall on (or the nearest IMU step
+within half a step when they were logged at their own times).
+
+Constraint windows (eqs 32-34, 51), per jump of the session:
+
+* ``c_q`` at every step;
+* ``c_V,IR`` and ``c_H,IR`` from the start of the in-run to the take-off
+  (inclusive).  The in-run starts where the athlete last sat at the gate:
+  the run of GNSS speeds below ``rest_speed`` that ends last before the
+  take-off (at most ``max_rest`` seconds of it), or the session's (segment's)
+  start when there is none;
+* ``c_V,LA`` from the touch-down to the end of the first rest after it (or the
+  next in-run / the session's end).  The errata's touch-down note: the sensor
+  settles onto the slope over ~0.2 s after the detected touch-down, so the
+  constraint starts ``la_delay`` seconds after it and its weight (inverse
+  variance) ramps linearly from 0 to full over ``la_ramp`` seconds.
+
+Initial state (paper §4.1): position and NED velocity of the first GNSS fix,
+attitude by QUEST (:func:`sportfusion.estimators.quest.quest`) from the mean
+accelerometer and magnetometer samples of the first ``init_window`` seconds
+(gravity up and the reference field), parameters zero; ``P0``, ``Q``, ``R`` are
+Tables 3-5 as 1-sigma values in :class:`SmootherConfig`, all overridable from a
+TOML file (:func:`load_config`).  The reference field is the hill file's, else
+the World Magnetic Model at the take-off edge and the session's date.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core import rotations, schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.session import with_columns
+from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
+from sportfusion.estimators.quest import quest
+from sportfusion.skijump import model as mdl
+from sportfusion.skijump.hillfile import Hill
+from sportfusion.skijump.kinematics import m_bo, m_no
+from sportfusion.skijump.smoother_inputs import (
+    SkiJumpInputs,
+    SmootherConfig,
+    _slice,
+    profile_tables,
+    segments,
+    session_inputs,
+)
+
+
+def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Paper §4.1: first GNSS fix, QUEST attitude from the first samples, zero parameters; Table 3 P0."""
+    x0 = np.zeros(mdl.N)
+    ip = int(np.flatnonzero(np.isfinite(inp.pos[:, 0]))[0])
+    x0[0:3] = inp.pos[ip]
+    w = inp.t <= inp.t[0] + cfg.init_window
+    acc = inp.u[w, 3:6].mean(axis=0)
+    mags = inp.mag[w & np.isfinite(inp.mag[:, 0])]
+    if mags.shape[0] == 0 and np.isfinite(inp.mag[:, 0]).any():
+        mags = inp.mag[np.isfinite(inp.mag[:, 0])][:1]
+    if mags.shape[0]:
+        body = np.stack([acc, mags.mean(axis=0)])[None]
+        ref = np.stack([np.array([0.0, 0.0, -1.0]), inp.m_o])
+        q, _ = quest(body, ref, np.array([0.9, 0.1]))
+        q = q[0]
+    else:  # no magnetometer: level the attitude, heading along the hill axis
+        gx, gy, gz = -acc / np.linalg.norm(acc)
+        roll, pitch = math.atan2(gy, gz), math.atan2(-gx, math.hypot(gy, gz))
+        q = rotations.quat_from_euler(np.array(roll), np.array(pitch), np.array(math.radians(inp.azimuth_deg)))
+    x0[6:10] = q
+    iv = np.flatnonzero(np.isfinite(inp.vel[:, 0]))
+    if iv.size:
+        x0[3:6] = m_bo(q) @ inp.vel[iv[0]]
+    p = np.concatenate(
+        [
+            cfg.p0_pos,
+            cfg.p0_vel,
+            [cfg.p0_quat] * 4,
+            [cfg.p0_bias_gyr] * 3,
+            [cfg.p0_bias_acc] * 3,
+            [cfg.p0_bias_mag] * 3,
+            [cfg.p0_scale_mag] * 3,
+        ]
+    )
+    return x0, np.diag(np.asarray(p, float) ** 2)
+
+
+def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None):
+    """propagate/measure for :func:`ekf_rts` (plain numpy, the reference path)."""
+    mno = m_no(math.radians(inp.azimuth_deg))
+    qd = np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2
+    dt = np.diff(inp.t)
+    R_pos = np.diag(np.asarray(cfg.r_gnss_pos) ** 2)
+    R_vel = np.diag(np.asarray(cfg.r_gnss_vel) ** 2)
+    R_mag = np.eye(3) * cfg.r_mag**2
+    has_pos = np.isfinite(inp.pos[:, 0])
+    has_vel = np.isfinite(inp.vel[:, 0]) & cfg.use_gnss_vel
+    has_mag = np.isfinite(inp.mag[:, 0]) & cfg.use_mag
+    use_hill = cfg.hill_constraints and hill is not None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
+    H_pos = np.zeros((3, mdl.N))
+    H_pos[:, 0:3] = np.eye(3)
+    H_y = np.zeros((1, mdl.N))
+    H_y[0, 1] = 1.0
+
+    def propagate(k: int, x: np.ndarray):
+        u0, u1 = inp.u[k], inp.u[k + 1]
+        xn = mdl.rk4_aug(x, u0, u1, dt[k], inp.g0, mno)
+        A = mdl.jac_a(x, u0, inp.g0, mno)
+        Phi, Qd = mdl.discrete(A, mdl.jac_f(x), qd, dt[k])
+        return xn, Phi, Qd
+
+    def measure(k: int, x: np.ndarray) -> list[Measurement]:
+        out = [Measurement(np.array([-mdl.c_q(x)]), mdl.C_q(x), np.array([[cfg.r_c_q**2]]), "c_q")]
+        if has_pos[k]:
+            out.append(Measurement(inp.pos[k] - x[0:3], H_pos, R_pos, "gnss_pos"))
+        if has_vel[k]:
+            out.append(Measurement(inp.vel[k] - mdl.h_vel(x), mdl.H_vel(x), R_vel, "gnss_vel"))
+        if has_mag[k]:
+            out.append(Measurement(inp.mag[k] - mdl.h_mag(x, inp.m_o), mdl.H_mag(x, inp.m_o), R_mag, "mag"))
+        if use_hill:
+            if inp.inrun[k]:
+                z, dz = ir(x[0])
+                H = np.zeros((1, mdl.N))
+                H[0, 0], H[0, 2] = -dz, 1.0
+                out.append(Measurement(np.array([z - x[2]]), H, np.array([[cfg.r_c_v_ir**2]]), "c_v_ir"))
+                out.append(Measurement(np.array([-x[1]]), H_y, np.array([[cfg.r_c_h_ir**2]]), "c_h_ir"))
+            wl = inp.landing[k]
+            if wl > 0:
+                z, dz = la(x[0])
+                H = np.zeros((1, mdl.N))
+                H[0, 0], H[0, 2] = -dz, 1.0
+                out.append(Measurement(np.array([z - x[2]]), H, np.array([[cfg.r_c_v_la**2 / wl]]), "c_v_la"))
+        return out
+
+    return propagate, measure
+
+
+@dataclass
+class Smoothed:
+    """Smoother output over all IMU steps (either engine).
+
+    ``cov(idx)`` returns the smoothed covariances (n, k, k) over the state indices ``idx``.
+    """
+
+    x_filt: np.ndarray
+    x_smooth: np.ndarray
+    cov: Callable[[np.ndarray], np.ndarray]
+    residuals: dict[str, np.ndarray]
+    passes: list[int]
+
+
+def _fast_engine():  # noqa: ANN202
+    try:
+        from sportfusion.skijump import smoother_fast as skijump_fast
+    except ImportError:  # numba missing: the numpy reference path
+        return None
+    return skijump_fast
+
+
+def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, x0: np.ndarray, P0: np.ndarray):  # noqa: ANN001, ANN202
+    use_hill = cfg.hill_constraints and hill is not None
+    ir, la = profile_tables(hill) if use_hill else (None, None)
+    empty = np.zeros(2)
+    try:
+        out = fast.ski_ekf_rts(
+            seg.t,
+            seg.u,
+            seg.pos,
+            seg.vel,
+            seg.mag,
+            seg.inrun,
+            seg.landing,
+            x0,
+            P0,
+            float(seg.g0),
+            m_no(math.radians(seg.azimuth_deg)),
+            seg.m_o,
+            np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+            np.asarray(cfg.r_gnss_pos, float) ** 2,
+            np.asarray(cfg.r_gnss_vel, float) ** 2,
+            float(cfg.r_mag**2),
+            float(cfg.r_c_q**2),
+            float(cfg.r_c_v_ir**2),
+            float(cfg.r_c_h_ir**2),
+            float(cfg.r_c_v_la**2),
+            ir.x0 if ir else 0.0,
+            ir.step if ir else 1.0,
+            ir.z if ir else empty,
+            ir.dz if ir else empty,
+            la.x0 if la else 0.0,
+            la.step if la else 1.0,
+            la.z if la else empty,
+            la.dz if la else empty,
+            use_hill,
+            bool(cfg.use_gnss_vel),
+            bool(cfg.use_mag),
+        )
+    except np.linalg.LinAlgError:
+        raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
+    xf, xs, Pp, resid, fail, phase = out
+    if fail >= 0:
+        what = ("update", "prediction", "backward pass")[phase]
+        raise CovarianceError(f"covariance not positive definite at step {fail} (t = {seg.t[fail]:.3f} s) ({what})")
+    res, i = {}, 0
+    for name, w in fast.RESIDUALS:
+        res[name] = resid[:, i : i + w]
+        i += w
+    return xf, xs, Pp, res
+
+
+def smooth_inputs(
+    inp: SkiJumpInputs,
+    hill: Hill | None,
+    cfg: SmootherConfig,
+    progress: Callable[[int], object] | None = None,
+    engine: str = "auto",
+) -> Smoothed:
+    """Run the EKF + RTS smoother over the prepared inputs (raises InputError when it diverges).
+
+    Parameters
+    ----------
+    engine : {"auto", "numba", "numpy"}
+        ``numpy``: :func:`sportfusion.estimators.kalman.ekf_rts` with the model callables (the
+        reference); ``numba``: the compiled loop of
+        :mod:`sportfusion.skijump.smoother_fast` (same equations, packed
+        covariances); ``auto``: numba when it is installed.
+
+    A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
+    independent segments (each initialised from its own first samples); the
+    results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
+    the smoothed initial state (mean only, same ``P0``) until the initial attitude
+    changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
+    re-linearises the start, where an attitude error of tens of degrees (gyro
+    biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
+    regime.  These passes cover the first ``cfg.pass_window`` seconds; one final
+    pass then covers the whole segment (a single pass when the window covers it).
+    """
+    fast = _fast_engine() if engine in ("auto", "numba") else None
+    if engine == "numba" and fast is None:
+        raise InputError("engine numba requested but numba is not installed; expected pip install numba")
+    xfs, xss, covs, resids, npass = [], [], [], [], []
+    for a, b in segments(inp.t, cfg.max_gap):
+        seg = _slice(inp, a, b)
+        if b - a < 2 or not np.isfinite(seg.pos[:, 0]).any():
+            raise InputError(
+                f"the IMU segment {seg.t[0]:.2f}-{seg.t[-1]:.2f} s has no GNSS fix (or a single sample); "
+                "expected GNSS during every recorded stretch"
+            )
+        x0, P0 = initial_state(seg, cfg)
+        nw = int(np.searchsorted(seg.t, seg.t[0] + cfg.pass_window, side="right"))
+        nw = max(min(nw, seg.t.size), 2)
+
+        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202
+            if fast is None:
+                propagate, measure = _model_callables(sub, cfg, hill)
+                r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
+                return r.x_filt, r.x_smooth, r.P_smooth, r.residuals
+            out = _run_fast(fast, sub, cfg, hill, x0, P0)
+            if progress is not None:
+                for k in range(2 * sub.t.size - 1):
+                    progress(k)
+            return out
+
+        try:
+            # re-linearisation passes over the first pass_window seconds, then the whole segment
+            win = seg if nw == seg.t.size else _slice(seg, 0, nw)
+            done, it, change = None, 0, math.inf
+            for it in range(max(cfg.passes, 1)):
+                done = run(win, x0)
+                q_old = x0[6:10] / np.linalg.norm(x0[6:10])
+                x0 = done[1][0].copy()
+                x0[6:10] /= np.linalg.norm(x0[6:10])
+                change = float(np.degrees(rotations.quat_angle(q_old, x0[6:10])))
+                if it > 0 and change < cfg.pass_tol_deg:
+                    break
+            if win is not seg:
+                done = run(seg, x0)
+                it += 1
+            xf, xs, P, res = done
+        except CovarianceError as exc:
+            raise InputError(f"the smoother failed: {exc}") from None
+        xfs.append(xf)
+        xss.append(xs)
+        covs.append(P)
+        resids.append(res)
+        npass.append(it + 1)
+
+    def cov(idx: np.ndarray) -> np.ndarray:
+        idx = np.asarray(idx)
+        if fast is None:
+            return np.concatenate([P[:, idx][:, :, idx] for P in covs])
+        return np.concatenate([fast.unpack_many(P, idx) for P in covs])
+
+    names = {k: v.shape[1] for r in resids for k, v in r.items()}
+    out = {k: np.full((inp.t.size, m), np.nan) for k, m in names.items()}
+    i = 0
+    for xf, r in zip(xfs, resids, strict=True):
+        for k, v in r.items():
+            out[k][i : i + xf.shape[0]] = v
+        i += xf.shape[0]
+    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, out, npass)
+
+
+def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
+    """Values at the steps -> every table row (linear in time; NaN outside the IMU segments)."""
+    out = np.full((t_rows.size, values.shape[1]), np.nan)
+    for a, b in segments(t, max_gap):
+        inside = (t_rows >= t[a]) & (t_rows <= t[b - 1])
+        for j in range(values.shape[1]):
+            out[inside, j] = np.interp(t_rows[inside], t[a:b], values[a:b, j])
+    return out
+
+
+def _estimate_columns(
+    x: np.ndarray, cov: Callable[[np.ndarray], np.ndarray] | None, inp: SkiJumpInputs, prefix: str = ""
+) -> dict[str, np.ndarray]:
+    """Named estimate columns (at the steps) from states (n, 22) and covariances (n, 22, 22)."""
+    mno = m_no(math.radians(inp.azimuth_deg))
+    q = x[:, 6:10]
+    qn = q / np.linalg.norm(q, axis=1, keepdims=True)
+    M = m_bo(q)
+    v_o = np.einsum("nji,nj->ni", M, x[:, 3:6])
+    v_n = rotations.ned_to_local(v_o, inp.azimuth_deg)  # the one NED -> hill-frame rotation
+    roll, pitch, yaw = rotations.euler_from_quat(qn)
+    cols: dict[str, np.ndarray] = {}
+    for k, a in enumerate("xyz"):
+        cols[prefix + a] = x[:, k]
+    for k, a in enumerate("xyz"):
+        cols[f"{prefix}v{a}"] = v_n[:, k]
+    for k in range(4):
+        cols[f"{prefix}q{k}"] = qn[:, k]
+    cols[prefix + "roll"], cols[prefix + "pitch"], cols[prefix + "yaw"] = roll, pitch, yaw
+    if prefix:
+        return cols
+    for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
+        for k, a in enumerate("xyz"):
+            cols[f"{name}_{a}"] = x[:, sl][:, k]
+    # eq 50: the magnetometer the estimate predicts (the paper's Figure 12 sets it beside the measurement)
+    mag = (1.0 + x[:, mdl.I_SM]) * (M @ inp.m_o) + x[:, mdl.I_BM]
+    for k, a in enumerate("xyz"):
+        cols[f"mag_pred_{a}"] = mag[:, k]
+    if cov is None:
+        return cols
+    d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
+    P = np.zeros((x.shape[0], 10, 10))
+    P[:, 3:10, 3:10] = cov(np.arange(3, 10))
+    for k, a in enumerate("xyz"):
+        cols[f"std_{a}"] = d[:, k]
+    # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
+    dm = mdl.dm_dq(q)  # (n, 4, 3, 3)
+    Jv = np.einsum("ij,nkj->nik", mno, M)  # (n,3,3)  M_NO M^T
+    Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[:, 3:6])  # (n,3,4)  M_NO dM_k^T v
+    J = np.concatenate([Jv, Jq], axis=2)
+    Cv = np.einsum("nij,njk,nlk->nil", J, P[:, 3:10, 3:10], J)
+    sv = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
+    for k, a in enumerate("xyz"):
+        cols[f"std_v{a}"] = sv[:, k]
+    for k in range(4):
+        cols[f"std_q{k}"] = d[:, 6 + k]
+    # Euler angles: numerical Jacobian w.r.t. q (of the normalised quaternion)
+    eps = 1e-7
+    e0 = np.stack((roll, pitch, yaw), axis=-1)
+    Je = np.empty((q.shape[0], 3, 4))
+    for k in range(4):
+        qp = q.copy()
+        qp[:, k] += eps
+        qp /= np.linalg.norm(qp, axis=1, keepdims=True)
+        e = np.stack(rotations.euler_from_quat(qp), axis=-1)
+        de = e - e0
+        de = (de + np.pi) % (2 * np.pi) - np.pi
+        Je[:, :, k] = de / eps
+    Ce = np.einsum("nij,njk,nlk->nil", Je, P[:, 6:10, 6:10], Je)
+    se = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
+    for k, a in enumerate(("roll", "pitch", "yaw")):
+        cols[f"std_{a}"] = se[:, k]
+    for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
+        for k, a in enumerate("xyz"):
+            cols[f"std_{name}_{a}"] = d[:, sl][:, k]
+    return cols
+
+
+def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -> dict[str, np.ndarray]:
+    """Constraint values (eq 51) at the states ``x`` (n, 22): NaN where a hill constraint is inactive."""
+    out = {"c_q": np.linalg.norm(x[:, 6:10], axis=1) - 1.0}
+    nan = np.full(x.shape[0], np.nan)
+    if hill is None:
+        out.update(c_v_ir=nan, c_h_ir=nan.copy(), c_v_la=nan.copy())
+        return out
+    ir, la = profile_tables(hill)
+    out["c_v_ir"] = np.where(inp.inrun, x[:, 2] - ir.many(x[:, 0]), np.nan)
+    out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
+    out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)
+    return out
+
+
+def rts_smooth_table(
+    table: pa.Table,
+    meta: dict[str, Any],
+    hill: Hill,
+    cfg: SmootherConfig | None = None,
+    *,
+    takeoff: list[float] | None = None,
+    touchdown: list[float] | None = None,
+    filtered: bool = False,
+    progress: Callable[[int], object] | None = None,
+    on_start: Callable[[int], object] | None = None,
+    engine: str = "auto",
+) -> tuple[pa.Table, dict[str, Any], str]:
+    """``rts-smooth`` on a session table: every input column plus the estimate columns.
+
+    Parameters
+    ----------
+    table, meta : session and its metadata
+    hill : the hill (profile for the constraints, take-off edge for the frame)
+    cfg : SmootherConfig, optional
+    takeoff, touchdown : lists of times [s], optional
+        Events; default the ``event`` column's ``takeoff``/``touchdown`` rows.
+    filtered : bool
+        Also write the forward-only (EKF) estimates as ``filt_`` columns.
+    progress : callable(k), optional
+        Called once per forward and backward step.
+    on_start : callable(total), optional
+        Called with the number of progress calls to expect.
+
+    Returns
+    -------
+    table, meta, message
+    """
+    cfg = cfg or SmootherConfig()
+    inp, frame = session_inputs(table, meta, hill, cfg, takeoff, touchdown)
+    if on_start is not None:
+        on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
+    res = smooth_inputs(inp, hill, cfg, progress, engine)
+    t_rows = schema.floats(table, "t")
+    cols = _estimate_columns(res.x_smooth, res.cov, inp)
+    cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
+    if filtered:
+        cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))
+    names = list(cols)
+    vals = _interp_rows(t_rows, inp.t, np.stack([cols[n] for n in names], axis=-1), cfg.max_gap)
+    out_cols = {n: vals[:, j] for j, n in enumerate(names)}
+    # quaternions interpolated linearly: renormalise
+    for pre in ("", "filt_") if filtered else ("",):
+        qs = np.stack([out_cols[f"{pre}q{k}"] for k in range(4)], axis=-1)
+        qs /= np.linalg.norm(qs, axis=1, keepdims=True)
+        for k in range(4):
+            out_cols[f"{pre}q{k}"] = qs[:, k]
+    out = with_columns(table, out_cols)
+    new_meta = dict(meta)
+    new_meta["frame"] = frame.to_meta()
+    new_meta["hill"] = hill.meta()
+    new_meta["rts"] = {
+        "config": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(cfg).items()},
+        "jumps": [{"takeoff": a, "touchdown": b} for a, b in inp.jumps],
+        "gravity": inp.g0,
+        "passes": res.passes,
+        "mag_field_ned": inp.m_o.tolist(),
+        "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
+    }
+    msg = (
+        f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
+        f"hill constraints {'on' if cfg.hill_constraints else 'off'}"
+    )
+    return out, new_meta, msg

@@ -1,0 +1,433 @@
+"""Inputs of the ski-jump smoother: configuration, constraint windows and the session on the IMU steps.
+
+* :class:`SmootherConfig` -- ``P0``, ``Q``, ``R`` of Tables 3-5 as 1-sigma values, overridable from TOML
+  (:func:`load_config`);
+* :func:`session_events`, :func:`constraint_windows` -- take-off/touch-down per jump and the windows of
+  the constraints (eqs 32-34, 51): ``c_q`` at every step; ``c_V,IR`` and ``c_H,IR`` from the start of the
+  in-run (the last rest at the gate, at most ``max_rest`` s of it) to the take-off; ``c_V,LA`` from
+  ``la_delay`` s after the touch-down, its weight ramping over ``la_ramp`` s (errata), to the end of the
+  first rest after it;
+* :func:`session_inputs` -- the IMU samples as steps [s], GNSS in the hill frame [m] and NED velocity
+  [m/s], magnetometer [uT] on the step they fall on, the profile tables;
+* :func:`segments` -- the session cut at IMU gaps longer than ``max_gap`` [s].
+
+The run itself is :mod:`sportfusion.skijump.smoother`.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+from scipy.ndimage import median_filter
+
+from sportfusion.core import schema
+from sportfusion.core.errors import InputError
+from sportfusion.core.frames import Frame, gnss_local_columns
+from sportfusion.core.magfield import reference_field
+from sportfusion.core.meta import epoch_unix
+from sportfusion.core.session import validate_time
+from sportfusion.skijump.events import gnss_speed
+from sportfusion.skijump.hillfile import Hill
+
+IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z")
+
+
+MAG_COLUMNS = ("mag_x", "mag_y", "mag_z")
+
+
+VEL_COLUMNS = ("vel_n", "vel_e", "vel_d")
+
+
+CONSTRAINT_COLUMNS = ("c_q", "c_v_ir", "c_h_ir", "c_v_la")
+
+
+@dataclass
+class SmootherConfig:
+    """Tuning of the ski-jump smoother; defaults are the paper's Tables 3-5 as 1-sigma values.
+
+    Units: positions [m], velocities [m/s], rates [rad/s], specific force
+    [m/s^2], magnetic field [uT], times [s], quaternion and scale errors [1].
+    """
+
+    # Table 3: initial 1-sigma
+    p0_pos: tuple[float, float, float] = (5.0, 5.0, 15.0)
+    p0_vel: tuple[float, float, float] = (1.0, 1.0, 3.0)
+    p0_quat: float = 0.1
+    p0_bias_gyr: float = 0.0873
+    p0_bias_acc: float = 0.2
+    p0_bias_mag: float = 5.0
+    p0_scale_mag: float = 0.1
+    # Table 4: per-sample input noise 1-sigma
+    q_gyr: float = 0.0175
+    q_acc: float = 0.1
+    # Table 5: measurement and constraint 1-sigma
+    r_gnss_pos: tuple[float, float, float] = (3.0, 3.0, 5.0)
+    r_gnss_vel: tuple[float, float, float] = (0.1, 0.1, 0.3)
+    r_mag: float = 5.0
+    r_c_q: float = 0.01
+    r_c_v_ir: float = 0.1
+    r_c_h_ir: float = 0.1
+    r_c_v_la: float = 0.1
+    # switches
+    hill_constraints: bool = True
+    use_gnss_vel: bool = True
+    use_mag: bool = True
+    # windows
+    la_delay: float = 0.0
+    la_ramp: float = 0.2
+    rest_speed: float = 1.0
+    max_rest: float = 60.0
+    init_window: float = 0.1
+    max_gap: float = 1.0
+    passes: int = 5
+    pass_tol_deg: float = 0.05
+    pass_window: float = 120.0
+
+
+def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
+    """Read a TOML file of :class:`SmootherConfig` keys (top level or under ``[rts]``) over ``base``.
+
+    Raises
+    ------
+    InputError
+        Unreadable TOML, an unknown key or a value of the wrong shape.
+    """
+    cfg = base or SmootherConfig()
+    if path is None:
+        return cfg
+    try:
+        doc = tomllib.loads(Path(path).read_text())
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"config {path}: {exc}; expected a TOML file of smoother settings") from None
+    doc = doc.get("rts", doc)
+    known = {f.name: f for f in fields(SmootherConfig)}
+    values = asdict(cfg)
+    for key, val in doc.items():
+        if key not in known:
+            raise InputError(f"config {path}: unknown key {key!r}; expected one of {', '.join(known)}")
+        old = values[key]
+        if isinstance(old, bool):
+            if not isinstance(val, bool):
+                raise InputError(f"config {path}: {key} must be true or false")
+        elif isinstance(old, tuple):
+            if not (isinstance(val, list) and len(val) == len(old) and all(isinstance(v, int | float) for v in val)):
+                raise InputError(f"config {path}: {key} must be a list of {len(old)} numbers")
+            val = tuple(float(v) for v in val)
+        elif isinstance(old, int):
+            if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+                raise InputError(f"config {path}: {key} must be a positive integer")
+        elif not isinstance(val, int | float) or isinstance(val, bool) or not math.isfinite(val) or val < 0:
+            raise InputError(f"config {path}: {key} must be a non-negative number")
+        values[key] = val
+    return SmootherConfig(**values)
+
+
+class ProfileTable:
+    """A hill profile part tabulated for fast scalar look-ups: ``z(x)`` and ``dz/dx`` [m, 1].
+
+    Linear interpolation on a ``step`` [m] grid (0.05 m: < 0.1 mm from the
+    profile on radii above 10 m), continued by straight lines beyond the part.
+    """
+
+    def __init__(self, hill: Hill, part: str, margin: float = 300.0, step: float = 0.05) -> None:
+        segs = hill.profile.segments(part)
+        lo, hi = float(segs[0].x0), float(segs[-1].x1)
+        self.x0 = lo - margin
+        self.step = step
+        xs = np.arange(self.x0, hi + margin + step, step)
+        self.z = np.asarray(hill.profile.z(xs, part, extend=True), dtype=float)
+        self.dz = np.asarray(hill.profile.dzdx(xs, part, extend=True), dtype=float)
+        self.n = xs.size
+
+    def __call__(self, x: float) -> tuple[float, float]:
+        """``(z, dz/dx)`` at ``x`` [m]."""
+        f = (x - self.x0) / self.step
+        i = min(max(int(f), 0), self.n - 2)
+        a = f - i
+        return (1 - a) * self.z[i] + a * self.z[i + 1], (1 - a) * self.dz[i] + a * self.dz[i + 1]
+
+    def many(self, x: np.ndarray) -> np.ndarray:
+        """``z`` at many ``x`` [m]."""
+        return np.interp(x, self.x0 + self.step * np.arange(self.n), self.z)
+
+
+def profile_tables(hill: Hill) -> tuple[ProfileTable, ProfileTable]:
+    """In-run and landing :class:`ProfileTable` of a hill, built once per hill object."""
+    tabs = getattr(hill, "_rts_profile_tables", None)
+    if tabs is None:
+        tabs = (ProfileTable(hill, "inrun"), ProfileTable(hill, "landing"))
+        hill._rts_profile_tables = tabs  # type: ignore[attr-defined]
+    return tabs
+
+
+@dataclass
+class SkiJumpInputs:
+    """Everything the smoother needs, per IMU step (NaN where a sensor did not sample)."""
+
+    t: np.ndarray  # (n,) step times [s]
+    rows: np.ndarray  # (n,) table row of each step
+    u: np.ndarray  # (n, 6) gyro [rad/s], acc [m/s^2]
+    pos: np.ndarray  # (n, 3) GNSS position, hill frame [m]
+    vel: np.ndarray  # (n, 3) GNSS velocity NED [m/s]
+    mag: np.ndarray  # (n, 3) magnetometer [uT]
+    g0: float
+    m_o: np.ndarray  # (3,) reference field NED [uT]
+    azimuth_deg: float
+    jumps: list[tuple[float, float]]  # (takeoff, touchdown) [s]
+    inrun: np.ndarray  # (n,) bool: c_V,IR and c_H,IR active
+    landing: np.ndarray  # (n,) weight 0..1 of c_V,LA
+
+
+def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
+    return np.stack([schema.floats(table, c) for c in names], axis=-1)
+
+
+def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Put row samples onto the nearest IMU step (within half a step); (n, k) with NaN elsewhere."""
+    out = np.full((t.size, values.shape[1]), np.nan)
+    ts, vs = t_rows[rows_ok], values[rows_ok]
+    if ts.size == 0:
+        return out
+    i = np.clip(np.searchsorted(t, ts), 1, max(t.size - 1, 1))
+    i = np.where((i > 0) & (np.abs(t[i - 1] - ts) <= np.abs(t[i] - ts)), i - 1, i)
+    i = np.minimum(i, t.size - 1)
+    half = 0.5 * np.median(np.diff(t)) if t.size > 1 else 0.0
+    keep = np.abs(t[i] - ts) <= half + 1e-9
+    out[i[keep]] = vs[keep]
+    return out
+
+
+def session_events(
+    table: pa.Table, takeoff: list[float] | None, touchdown: list[float] | None
+) -> list[tuple[float, float]]:
+    """(take-off, touch-down) pairs [s]: the given lists, else the ``event`` column's rows (validated)."""
+    if takeoff is not None or touchdown is not None:
+        tos, tds = sorted(takeoff or []), sorted(touchdown or [])
+    elif "event" in table.column_names:
+        t = schema.floats(table, "t")
+        ev = np.asarray(table.column("event").to_pylist(), dtype=object)
+        tos = sorted(t[ev == "takeoff"].tolist())
+        tds = sorted(t[ev == "touchdown"].tolist())
+    else:
+        tos, tds = [], []
+    if len(tos) != len(tds):
+        raise InputError(
+            f"{len(tos)} take-off(s) but {len(tds)} touch-down(s); expected one touch-down after each take-off"
+        )
+    jumps = list(zip(tos, tds, strict=True))
+    for k, (a, b) in enumerate(jumps):
+        nxt = jumps[k + 1][0] if k + 1 < len(jumps) else math.inf
+        if not a < b < nxt:
+            raise InputError(
+                f"take-off at {a:.3f} s and touch-down at {b:.3f} s do not alternate; "
+                "expected each touch-down after its take-off and before the next take-off"
+            )
+    return jumps
+
+
+def constraint_windows(
+    t: np.ndarray,
+    speed_t: np.ndarray,
+    speed: np.ndarray,
+    jumps: list[tuple[float, float]],
+    cfg: SmootherConfig,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the hill constraints on the step times ``t`` (see the module text).
+
+    Returns
+    -------
+    inrun : ndarray bool (n,)
+        ``c_V,IR`` and ``c_H,IR`` active.
+    landing : ndarray float (n,)
+        Weight of ``c_V,LA`` in [0, 1] (0: inactive).
+    """
+    inrun = np.zeros(t.size, bool)
+    landing = np.zeros(t.size, float)
+    # a running median over 9 GNSS epochs keeps single noisy velocities from splitting a rest
+    slow = median_filter(speed, size=9, mode="nearest") < cfg.rest_speed if speed.size else speed < cfg.rest_speed
+    seg_start = t[0]
+    for k, (t_to, t_td) in enumerate(jumps):
+        # in-run: back from the take-off to the last rest
+        before = (speed_t < t_to) & (speed_t >= seg_start)
+        idx = np.flatnonzero(before & slow)
+        start = seg_start
+        if idx.size:
+            i = idx[-1]
+            while (
+                i > 0
+                and slow[i - 1]
+                and speed_t[i - 1] >= seg_start
+                and speed_t[idx[-1]] - speed_t[i - 1] <= cfg.max_rest
+                and speed_t[i] - speed_t[i - 1] <= cfg.max_gap
+            ):
+                i -= 1
+            start = max(speed_t[i], seg_start)
+        inrun |= (t >= start) & (t <= t_to)
+        # landing: from the touch-down to the end of the first rest after it
+        nxt = jumps[k + 1][0] if k + 1 < len(jumps) else math.inf
+        after = np.flatnonzero((speed_t > t_td + 1.0) & (speed_t < nxt) & slow)
+        end = t[-1] if math.isinf(nxt) else nxt
+        if after.size:
+            i = after[0]
+            t_stop = speed_t[i]
+            while (
+                i + 1 < speed_t.size
+                and slow[i + 1]
+                and speed_t[i + 1] - t_stop <= cfg.max_rest
+                and speed_t[i + 1] - speed_t[i] <= cfg.max_gap
+                and speed_t[i + 1] < nxt
+            ):
+                i += 1
+            if i + 1 < speed_t.size and speed_t[i + 1] < nxt:  # moving again, or a gap, before the next jump
+                end = speed_t[i]
+        t0 = t_td + cfg.la_delay
+        w = np.clip((t - t0) / cfg.la_ramp, 0.0, 1.0) if cfg.la_ramp > 0 else (t >= t0).astype(float)
+        w[t < t0] = 0.0
+        w[t > end] = 0.0
+        landing = np.maximum(landing, w)
+        seg_start = end
+    return inrun, landing
+
+
+def _hill_frame(table: pa.Table, meta: dict[str, Any], hill: Hill) -> tuple[Frame, np.ndarray]:
+    """The hill frame and the GNSS positions in it (from lat/lon/h, else gnss_x.. in the table's frame)."""
+    names = set(table.column_names)
+    frame = hill.frame() if hill.has_origin else (Frame.from_meta(meta["frame"]) if meta.get("frame") else None)
+    if {"lat", "lon", "h"} <= names and frame is not None:
+        cols = gnss_local_columns(table, frame)
+        return frame, np.stack([cols[c] for c in ("gnss_x", "gnss_y", "gnss_z")], axis=-1)
+    if {"gnss_x", "gnss_y", "gnss_z"} <= names:
+        if not meta.get("frame"):
+            raise InputError("the table has gnss_x/y/z but no frame in its metadata; expected gps2hill output")
+        own = Frame.from_meta(meta["frame"])
+        if frame is not None and (
+            abs(own.azimuth_deg - frame.azimuth_deg) > 1e-6
+            or max(abs(a - b) for a, b in zip(own.origin[:2], frame.origin[:2], strict=True)) > 1e-7
+            or abs(own.h - frame.h) > 1e-3
+        ):
+            raise InputError(
+                f"gnss_x/y/z are in frame origin {list(own.origin)}, azimuth {own.azimuth_deg:g} deg, not the hill's "
+                f"{list(frame.origin)}, {frame.azimuth_deg:g} deg; expected gps2hill with the same --hill"
+            )
+        return own, _floats(table, ("gnss_x", "gnss_y", "gnss_z"))
+    if frame is None:
+        raise InputError("the hill has no take-off edge position and the table no frame; expected gps2hill output")
+    raise InputError(
+        "missing column(s) gnss_x, gnss_y, gnss_z (or lat, lon, h); expected GNSS positions (ingest + gps2hill)"
+    )
+
+
+def session_inputs(
+    table: pa.Table,
+    meta: dict[str, Any],
+    hill: Hill,
+    cfg: SmootherConfig,
+    takeoff: list[float] | None = None,
+    touchdown: list[float] | None = None,
+) -> tuple[SkiJumpInputs, Frame]:
+    """Gather IMU, GNSS, magnetometer, events and constraint windows of a session (raises InputError)."""
+    t_rows = validate_time(table)
+    missing = [c for c in IMU_COLUMNS if c not in table.column_names]
+    if missing:
+        raise InputError(f"missing column(s) {', '.join(missing)}; expected IMU data (gyroscope and accelerometer)")
+    imu = _floats(table, IMU_COLUMNS)
+    ok = np.isfinite(imu).all(axis=1)
+    if ok.sum() < 10:
+        raise InputError("the IMU columns hold fewer than 10 complete samples; expected a recorded IMU")
+    rows = np.flatnonzero(ok)
+    t = t_rows[rows]
+    u = imu[rows]
+    frame, pos_rows = _hill_frame(table, meta, hill)
+    pos_ok = np.isfinite(pos_rows).all(axis=1)
+    if not pos_ok.any():
+        raise InputError("no GNSS position in the session; expected GNSS fixes (gnss_x/y/z or lat/lon/h)")
+    _check_hill_near(pos_rows[pos_ok], hill)
+    pos = _to_steps(t_rows, pos_ok, pos_rows, t)
+    if np.isfinite(pos[:, 0]).sum() == 0:
+        raise InputError("no GNSS fix falls within the IMU recording; expected overlapping GNSS and IMU data")
+    if set(VEL_COLUMNS) <= set(table.column_names):
+        v_rows = _floats(table, VEL_COLUMNS)
+        vel = _to_steps(t_rows, np.isfinite(v_rows).all(axis=1), v_rows, t)
+    else:
+        vel = np.full((t.size, 3), np.nan)
+    if set(MAG_COLUMNS) <= set(table.column_names):
+        m_rows = _floats(table, MAG_COLUMNS)
+        mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
+    else:
+        mag = np.full((t.size, 3), np.nan)
+    jumps = session_events(table, takeoff, touchdown)
+    for a, b in jumps:
+        for name, te in (("take-off", a), ("touch-down", b)):
+            if not t[0] <= te <= t[-1]:
+                raise InputError(
+                    f"{name} at {te:.3f} s is outside the IMU data ({t[0]:.3f}-{t[-1]:.3f} s); "
+                    "expected events within the session"
+                )
+    field = hill.mag_field()
+    if field is None:
+        epoch = epoch_unix(meta)
+        field = reference_field(frame.lat, frame.lon, frame.h, (epoch or 0.0) + float(t[0]))
+    try:
+        st, sv = gnss_speed(table)
+    except InputError:
+        st, sv = np.zeros(0), np.zeros(0)
+    inrun, landing = constraint_windows(t, st, sv, jumps, cfg)
+    inp = SkiJumpInputs(
+        t=t,
+        rows=rows,
+        u=u,
+        pos=pos,
+        vel=vel,
+        mag=mag,
+        g0=hill.gravity(),
+        m_o=np.asarray(field, dtype=float),
+        azimuth_deg=frame.azimuth_deg,
+        jumps=jumps,
+        inrun=inrun,
+        landing=landing,
+    )
+    return inp, frame
+
+
+def _check_hill_near(pos: np.ndarray, hill: Hill, limit: float = 1000.0) -> None:
+    """InputError when no GNSS fix is within ``limit`` [m] of the hill's profile (x range, |y|)."""
+    segs = hill.profile.segments("inrun") + hill.profile.segments("landing")
+    lo, hi = min(s.x0 for s in segs), max(s.x1 for s in segs)
+    dx = np.maximum(np.maximum(lo - pos[:, 0], pos[:, 0] - hi), 0.0)
+    d = np.hypot(dx, pos[:, 1])
+    if d.min() > limit:
+        raise InputError(
+            f"the GNSS track is {d.min() / 1000:.1f} km from the hill {hill.name!r} (nearest fix); "
+            "expected a session recorded on that hill (check --hill and the hill's site)"
+        )
+
+
+def segments(t: np.ndarray, max_gap: float) -> list[tuple[int, int]]:
+    """Index ranges ``[a, b)`` of the IMU steps split where the sampling stops for more than ``max_gap`` [s]."""
+    cut = np.flatnonzero(np.diff(t) > max_gap) + 1
+    edges = [0, *cut.tolist(), t.size]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
+    sl = slice(a, b)
+    return SkiJumpInputs(
+        t=inp.t[sl],
+        rows=inp.rows[sl],
+        u=inp.u[sl],
+        pos=inp.pos[sl],
+        vel=inp.vel[sl],
+        mag=inp.mag[sl],
+        g0=inp.g0,
+        m_o=inp.m_o,
+        azimuth_deg=inp.azimuth_deg,
+        jumps=inp.jumps,
+        inrun=inp.inrun[sl],
+        landing=inp.landing[sl],
+    )

@@ -1,0 +1,226 @@
+"""DMC attitude per sample (skiracing-splines eqs 8-9, Table 2): references, QUEST, the dip from data.
+
+The digital-magnetic-compass references: ``m^l`` from a magnetic model and
+``f^l = r'' + (2 Omega_ie + Omega_el) r' - g^l`` [m/s^2] (:func:`reference_specific_force`, with
+:func:`coriolis_ned`); :func:`dmc_attitude` solves Wahba's problem per sample with
+:func:`sportfusion.estimators.quest.quest` from the body magnetometer and specific force;
+:func:`dip_from_quiet` estimates the inclination [rad] from quiet samples; :func:`lowpass` is the
+zero-phase Butterworth filter [Hz] applied to the sensors first.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sportfusion.core.rotations import dcm_from_quat, euler_from_dcm
+from sportfusion.estimators.quest import _unit, quest
+
+#: Earth rotation rate [rad/s] (WGS84)
+OMEGA_EARTH = 7.292115e-5
+
+
+_A = 6378137.0
+
+
+_E2 = 0.00669437999013
+
+
+def coriolis_ned(vel_ned: np.ndarray, lat_deg: float, h: float = 0.0) -> np.ndarray:
+    """``(2 Omega_ie + Omega_el) v`` of eq 9 in NED [m/s^2] for velocities ``(N, 3)`` [m/s].
+
+    ``omega_ie = w_e [cos phi, 0, -sin phi]``; transport rate
+    ``omega_el = [v_e/(R_N+h), -v_n/(R_M+h), -v_e tan(phi)/(R_N+h)]``.
+    """
+    v = np.asarray(vel_ned, float)
+    phi = np.deg2rad(lat_deg)
+    s = np.sin(phi)
+    rn = _A / np.sqrt(1 - _E2 * s * s)
+    rm = _A * (1 - _E2) / (1 - _E2 * s * s) ** 1.5
+    w_ie = OMEGA_EARTH * np.array([np.cos(phi), 0.0, -s])
+    w_el = np.stack((v[:, 1] / (rn + h), -v[:, 0] / (rm + h), -v[:, 1] * np.tan(phi) / (rn + h)), axis=-1)
+    return np.cross(2 * w_ie + w_el, v)
+
+
+def reference_specific_force(
+    acc_ned: np.ndarray | None,
+    g: float,
+    n: int | None = None,
+    vel_ned: np.ndarray | None = None,
+    lat_deg: float | None = None,
+    h: float = 0.0,
+) -> np.ndarray:
+    """Eq 9: ``f^l = r'' + (2 Omega_ie + Omega_el) r' - g^l`` in NED [m/s^2].
+
+    Parameters
+    ----------
+    acc_ned : array (N, 3) or None
+        Kinematic acceleration [m/s^2] (from the GNSS spline); None means low
+        dynamics (``f^l = -g^l = [0, 0, -g]``), and ``n`` gives the count.
+    g : float
+        Gravity magnitude [m/s^2]; ``g^l = [0, 0, g]`` (down).
+    vel_ned, lat_deg, h : optional
+        Velocity [m/s], latitude [deg] and height [m] for the Coriolis and
+        transport terms; omitted when ``vel_ned`` is None.
+    """
+    if acc_ned is None:
+        f = np.zeros((int(n or 0), 3))
+    else:
+        f = np.array(acc_ned, dtype=float, copy=True)
+    if vel_ned is not None and lat_deg is not None:
+        f = f + coriolis_ned(vel_ned, lat_deg, h)
+    f[:, 2] -= g
+    return f
+
+
+@dataclass
+class DMCResult:
+    """Per-sample DMC/GNSS attitude (:func:`dmc_attitude`).
+
+    Attributes
+    ----------
+    q : (N, 4) ``q_BO`` scalar first.
+    roll, pitch, yaw : (N,) [rad]; yaw is the azimuth from north.
+    loss : (N,) Wahba loss (``quest_loss``), dimensionless.
+    singular : (N,) bool, the reference or measured specific force is near
+        free fall, or the two directions are nearly parallel.
+    acc_kin_ned : (N, 3) kinematic acceleration re-estimated from the measured
+        specific force through the attitude (eq 9 solved for ``r''``) [m/s^2].
+    """
+
+    q: np.ndarray
+    roll: np.ndarray
+    pitch: np.ndarray
+    yaw: np.ndarray
+    loss: np.ndarray
+    singular: np.ndarray
+    acc_kin_ned: np.ndarray
+
+
+def dmc_attitude(
+    acc_body: np.ndarray,
+    mag_body: np.ndarray,
+    f_ref_ned: np.ndarray,
+    m_ref_ned: np.ndarray,
+    g: float,
+    *,
+    weight_acc: float = 1.0,
+    weight_mag: float = 1.0,
+    free_fall: float = 2.0,
+    min_angle_deg: float = 5.0,
+    coriolis: np.ndarray | None = None,
+) -> DMCResult:
+    """Instantaneous 3D attitude from a 3-axis DMC and GNSS (Table 2, eqs 8-9).
+
+    Parameters
+    ----------
+    acc_body : (N, 3) measured specific force [m/s^2].
+    mag_body : (N, 3) measured magnetic field (uT or normalised; only the direction is used).
+    f_ref_ned : (N, 3) reference specific force in NED [m/s^2] (:func:`reference_specific_force`).
+    m_ref_ned : (3,) or (N, 3) reference magnetic field in NED (any unit).
+    g : float, gravity [m/s^2] (to re-estimate the kinematic acceleration).
+    weight_acc, weight_mag : relative weights of the two observations.
+    free_fall : float [m/s^2]; ``|f|`` below this (reference or measured) flags the sample singular.
+    min_angle_deg : float [deg]; a reference or measured angle between f and m
+        below this (or above 180 minus it) flags the sample singular.
+    coriolis : (N, 3) optional, the ``(2 Omega_ie + Omega_el) v`` term [m/s^2]
+        removed when re-estimating the kinematic acceleration.
+    """
+    f_b = np.asarray(acc_body, float)
+    m_b = np.asarray(mag_body, float)
+    f_l = np.asarray(f_ref_ned, float)
+    m_l = np.broadcast_to(np.asarray(m_ref_ned, float), f_l.shape)
+    body = np.stack((f_b, m_b), axis=1)
+    ref = np.stack((f_l, m_l), axis=1)
+    q, loss = quest(body, ref, np.array([weight_acc, weight_mag]))
+    M = dcm_from_quat(q)  # one DCM for the Euler angles and the re-estimated acceleration
+    roll, pitch, yaw = euler_from_dcm(M)
+    sin2_min = np.sin(np.deg2rad(min_angle_deg)) ** 2
+
+    def norm2(u: np.ndarray) -> np.ndarray:
+        return np.einsum("...i,...i->...", u, u)
+
+    def sin2_angle(u: np.ndarray, v: np.ndarray, uu: np.ndarray, vv: np.ndarray) -> np.ndarray:
+        """sin^2 of the angle between u and v: 1 - cos^2, from the squared norms uu, vv."""
+        uv = np.einsum("...i,...i->...", u, v)
+        return 1.0 - uv * uv / (uu * vv)
+
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ffl, ffb, mml, mmb = norm2(f_l), norm2(f_b), norm2(np.asarray(m_ref_ned, float)), norm2(m_b)
+        singular = (
+            (ffl < free_fall**2)
+            | (ffb < free_fall**2)
+            | (sin2_angle(f_l, m_l, ffl, mml) < sin2_min)
+            | (sin2_angle(f_b, m_b, ffb, mmb) < sin2_min)
+        )
+    acc_kin = np.einsum("nji,nj->ni", M, f_b)  # M_BO^T f^b: specific force in NED
+    acc_kin[:, 2] += g
+    if coriolis is not None:
+        acc_kin = acc_kin - coriolis
+    return DMCResult(q, roll, pitch, yaw, loss, singular, acc_kin)
+
+
+def dip_from_quiet(
+    acc_body: np.ndarray, mag_body: np.ndarray, g: float, fs: float, window_s: float = 1.0, tol: float = 0.3
+) -> tuple[float, int]:
+    """Magnetic inclination [deg] estimated from quiet samples.
+
+    In a quiet sample the specific force is ``-g^l`` (pointing up), so the
+    angle between the measured field and the measured specific force gives the
+    dip: ``sin I = -m̂ · f̂``.  A sample is quiet when ``| |f| - g | < tol`` and
+    the moving standard deviation of ``|f|`` over ``window_s`` is below ``tol / 3``.
+
+    Parameters
+    ----------
+    acc_body, mag_body : (N, 3) specific force [m/s^2] and field (any unit).
+    g : float, gravity [m/s^2].
+    fs : float, sample rate [Hz].
+    window_s : float [s], tol : float [m/s^2].
+
+    Returns
+    -------
+    inclination_deg : float
+        Median over the quiet samples (NaN if none).
+    count : int
+        Number of quiet samples used.
+    """
+    f = np.asarray(acc_body, float)
+    m = np.asarray(mag_body, float)
+    norm = np.linalg.norm(f, axis=-1)
+    k = max(int(round(window_s * fs)), 1)
+    ok = np.isfinite(norm) & np.all(np.isfinite(m), axis=-1)
+    x = np.where(ok, norm, g)
+    kern = np.ones(k) / k
+    mean = np.convolve(x, kern, mode="same")
+    var = np.convolve(x * x, kern, mode="same") - mean**2
+    quiet = ok & (np.abs(norm - g) < tol) & (np.sqrt(np.maximum(var, 0)) < tol / 3)
+    if not quiet.any():
+        return float("nan"), 0
+    s = -np.einsum("ni,ni->n", _unit(m[quiet]), _unit(f[quiet]))
+    return float(np.degrees(np.arcsin(np.median(np.clip(s, -1, 1))))), int(quiet.sum())
+
+
+def lowpass(x: np.ndarray, fs: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of each column of ``x`` (N, d) sampled at ``fs`` [Hz].
+
+    ``cutoff_hz`` >= fs/2 or <= 0 returns ``x`` unchanged.  NaN samples are
+    bridged by linear interpolation for filtering and stay NaN in the output.
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    x = np.asarray(x, float)
+    if cutoff_hz <= 0 or cutoff_hz >= fs / 2 or x.shape[0] < 3 * (2 * order + 1):
+        return x.copy()
+    sos = butter(order, cutoff_hz, fs=fs, output="sos")
+    out = np.empty_like(x)
+    idx = np.arange(x.shape[0])
+    for c in range(x.shape[1]):
+        col = x[:, c]
+        ok = np.isfinite(col)
+        if not ok.any():
+            out[:, c] = col
+            continue
+        filled = np.interp(idx, idx[ok], col[ok])
+        out[:, c] = np.where(ok, sosfiltfilt(sos, filled), np.nan)
+    return out

@@ -1,0 +1,270 @@
+"""DMC/GNSS attitude over a session table (what ``dmc-attitude`` does).
+
+Rows: the attitude is computed on every row with a complete specific-force
+sample (``acc_x acc_y acc_z``).  The magnetometer is used on the same rows;
+where it sampled at other instants it is interpolated linearly onto the
+accelerometer rows.  GNSS kinematic acceleration ``ax ay az`` (from
+``spline-smooth``, in the session's local frame) is taken on those rows, and
+interpolated from the neighbouring rows where it is null; rows with none
+(before/after GNSS coverage) fall back to low dynamics (``f^l = -g``).
+
+Frames: local vectors are rotated to NED by :func:`sportfusion.core.rotations.local_to_ned`
+with the frame's azimuth before the reference vectors are formed; the
+attitude ``q_BO`` and ``yaw`` refer to NED (yaw is the azimuth from north);
+the re-estimated kinematic acceleration ``ax_dmc ay_dmc az_dmc`` is returned
+in the local frame, comparable with ``ax ay az``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core.errors import InputError
+from sportfusion.core.gravity import G_STANDARD, normal_gravity
+from sportfusion.core.magfield import field_from_angles, inclination_declination, reference_field
+from sportfusion.core.rotations import local_to_ned, ned_to_local
+from sportfusion.skirace.attitude import coriolis_ned, dip_from_quiet, dmc_attitude, lowpass, reference_specific_force
+
+
+@dataclass
+class DMCSessionResult:
+    """Columns to add (name -> array, NaN/null where a row has no attitude), plus what happened."""
+
+    columns: dict[str, np.ndarray | pa.Array]
+    rows: np.ndarray  # bool, rows with an attitude
+    info: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def _fill(t: np.ndarray, x: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Values of ``x`` (N, 3; NaN where missing) at ``rows``, linearly interpolated inside the data's span."""
+    out = np.full((rows.size, x.shape[1]), np.nan)
+    ok = np.all(np.isfinite(x), axis=1)
+    if ok.sum() < 2:
+        out[:] = x[rows] if ok.sum() else np.nan
+        return out
+    tr = t[rows]
+    inside = (tr >= t[ok][0]) & (tr <= t[ok][-1])
+    for c in range(x.shape[1]):
+        out[inside, c] = np.interp(tr[inside], t[ok], x[ok, c])
+    return out
+
+
+def dmc_session(
+    t: np.ndarray,
+    acc: np.ndarray,
+    mag: np.ndarray,
+    *,
+    acc_kin: np.ndarray | None = None,
+    vel: np.ndarray | None = None,
+    azimuth_deg: float = 0.0,
+    site: tuple[float, float, float] | None = None,
+    when: float | str | None = None,
+    mag_ref: np.ndarray | None = None,
+    dip_from_data: bool = False,
+    g0: float | None = None,
+    weight_acc: float = 1.0,
+    weight_mag: float = 1.0,
+    lowpass_hz: float = 5.0,
+    coriolis: bool = False,
+    free_fall: float = 2.0,
+) -> DMCSessionResult:
+    """Attitude per IMU row of a session from a DMC and the GNSS acceleration.
+
+    Parameters
+    ----------
+    t : (N,) row times [s].
+    acc : (N, 3) specific force [m/s^2] in the body frame, NaN where not sampled.
+    mag : (N, 3) magnetic field in the body frame (uT or normalised), NaN where not sampled.
+    acc_kin : (N, 3) kinematic acceleration in the local frame [m/s^2] (``ax ay az``) or None.
+    vel : (N, 3) velocity in the local frame [m/s] (for ``coriolis``) or None.
+    azimuth_deg : the local frame's x-axis azimuth [deg].
+    site : (lat [deg], lon [deg], h [m]) for gravity and the magnetic model.
+    when : date of the session (Unix seconds or ISO-8601) for the magnetic model.
+    mag_ref : (3,) reference field in NED (any unit) overriding the model.
+    dip_from_data : estimate the inclination from quiet samples instead of the model
+        (declination from the model when site and date are known, else 0).
+    g0 : gravity [m/s^2] overriding normal gravity.
+    weight_acc, weight_mag : Wahba weights of the two observations.
+    lowpass_hz : zero-phase low-pass of the raw DMC channels [Hz] (0: none).
+    coriolis : include the Coriolis and transport terms of eq 9 (needs ``vel`` and ``site``).
+    free_fall : |f| below this [m/s^2] flags ``dmc_singular``.
+    """
+    t = np.asarray(t, float)
+    n = t.size
+    warnings: list[str] = []
+    rows = np.flatnonzero(np.all(np.isfinite(acc), axis=1))
+    if rows.size < 1:
+        raise InputError("no row has a complete accelerometer sample (acc_x acc_y acc_z)")
+    f_b = np.asarray(acc, float)[rows]
+    same = np.all(np.isfinite(mag[rows]), axis=1)
+    m_b = np.asarray(mag, float)[rows].copy()
+    if not same.all():
+        interp = _fill(t, np.asarray(mag, float), rows)
+        m_b[~same] = interp[~same]
+    good = np.all(np.isfinite(m_b), axis=1)
+    if not good.any():
+        raise InputError("no accelerometer row has a magnetometer sample (mag_x mag_y mag_z) at or around it")
+    if not good.all():
+        warnings.append(f"{int((~good).sum())} accelerometer row(s) have no magnetometer sample around them: left null")
+    rows, f_b, m_b = rows[good], f_b[good], m_b[good]
+    dt = np.diff(t[rows])
+    fs = 1.0 / float(np.median(dt)) if dt.size else 1.0
+    if lowpass_hz > 0:
+        f_b = lowpass(f_b, fs, lowpass_hz)
+        m_b = lowpass(m_b, fs, lowpass_hz)
+    # gravity
+    if g0 is not None:
+        g = float(g0)
+    elif site is not None:
+        g = float(normal_gravity(site[0], site[2]))
+    else:
+        g = G_STANDARD
+        warnings.append(f"no site: gravity is the standard {G_STANDARD} m/s^2")
+    # magnetic reference in NED
+    info: dict = {"gravity": g}
+    if mag_ref is not None:
+        m_ref = np.asarray(mag_ref, float)
+        src = "given"
+    else:
+        model = None
+        if site is not None and when is not None:
+            model = reference_field(site[0], site[1], site[2], when)
+        if dip_from_data:
+            inc, count = dip_from_quiet(f_b, m_b, g, fs)
+            if count == 0:
+                raise InputError(
+                    "--dip-from-data found no quiet samples (|f| within 0.3 m/s^2 of g and steady for 1 s)"
+                )
+            dec = inclination_declination(model)[1] if model is not None else 0.0
+            if model is None:
+                warnings.append("no site/date for the declination: yaw is the magnetic azimuth")
+            m_ref = field_from_angles(inc, dec)
+            src = f"dip from {count} quiet samples"
+        elif model is not None:
+            m_ref = model
+            src = "World Magnetic Model"
+        else:
+            raise InputError(
+                "the magnetic reference needs a site and a date (lat/lon columns or frame origin, time.epoch_utc), "
+                "or --site/--date, --mag-ref N,E,D or --dip-from-data"
+            )
+    inc, dec = inclination_declination(m_ref)
+    info.update({"mag_ref_source": src, "inclination_deg": inc, "declination_deg": dec})
+    # reference specific force
+    if acc_kin is None:
+        warnings.append("no GNSS acceleration (ax ay az; run spline-smooth first): assuming low dynamics, f = -g")
+        a_loc = np.zeros((rows.size, 3))
+    else:
+        a_loc = _fill(t, np.asarray(acc_kin, float), rows)
+        missing = ~np.all(np.isfinite(a_loc), axis=1)
+        if missing.any():
+            warnings.append(f"{int(missing.sum())} row(s) outside the GNSS acceleration: assuming low dynamics there")
+            a_loc[missing] = 0.0
+    a_ned = local_to_ned(a_loc, azimuth_deg)
+    cor = None
+    if coriolis:
+        if vel is None or site is None:
+            warnings.append("--coriolis needs vx vy vz and a site: Coriolis terms left out")
+        else:
+            v_loc = _fill(t, np.asarray(vel, float), rows)
+            v_loc[~np.all(np.isfinite(v_loc), axis=1)] = 0.0
+            cor = coriolis_ned(local_to_ned(v_loc, azimuth_deg), site[0], site[2])
+    f_ref = reference_specific_force(a_ned, g)
+    if cor is not None:
+        f_ref = f_ref + cor
+    res = dmc_attitude(
+        f_b, m_b, f_ref, m_ref, g, weight_acc=weight_acc, weight_mag=weight_mag, free_fall=free_fall, coriolis=cor
+    )
+    a_dmc = ned_to_local(res.acc_kin_ned, azimuth_deg)
+    cols: dict[str, np.ndarray] = {}
+
+    def put(name: str, v: np.ndarray) -> None:
+        out = np.full(n, np.nan)
+        out[rows] = v
+        cols[name] = out
+
+    for i in range(4):
+        put(f"q{i}", res.q[:, i])
+    put("roll", res.roll)
+    put("pitch", res.pitch)
+    put("yaw", res.yaw)
+    put("quest_loss", res.loss)
+    mask = np.zeros(n, bool)
+    mask[rows] = True
+    sing = np.zeros(n, bool)
+    sing[rows] = res.singular
+    cols["dmc_singular"] = pa.array(sing, mask=~mask)  # null on rows without an attitude
+    for i, a in enumerate("xyz"):
+        put(f"a{a}_dmc", a_dmc[:, i])
+    info.update({"rows": int(rows.size), "singular": int(res.singular.sum()), "rate_hz": fs})
+    return DMCSessionResult(cols, mask, info, warnings)
+
+
+def _xyz(table: pa.Table, prefix: str, suffix: str = "") -> np.ndarray | None:
+    from sportfusion.core.schema import floats
+
+    names = [f"{prefix}{a}{suffix}" for a in "xyz"]
+    if not all(n in table.column_names for n in names):
+        return None
+    return np.column_stack([floats(table, n) for n in names])
+
+
+def session_site(table: pa.Table, meta: dict) -> tuple[float, float, float] | None:
+    """The session's site: median of the ``lat lon h`` columns, else the metadata frame origin, else None."""
+    from sportfusion.core.schema import floats
+
+    if "lat" in table.column_names and "lon" in table.column_names:
+        lat, lon = floats(table, "lat"), floats(table, "lon")
+        ok = np.isfinite(lat) & np.isfinite(lon)
+        if ok.any():
+            h = floats(table, "h") if "h" in table.column_names else np.zeros_like(lat)
+            hh = h[ok & np.isfinite(h)]
+            return float(np.median(lat[ok])), float(np.median(lon[ok])), float(np.median(hh)) if hh.size else 0.0
+    origin = (meta.get("frame") or {}).get("origin")
+    if origin:
+        return float(origin[0]), float(origin[1]), float(origin[2])
+    return None
+
+
+def dmc_table(
+    table: pa.Table,
+    meta: dict,
+    *,
+    site: tuple[float, float, float] | None = None,
+    date: str | None = None,
+    **options: object,
+) -> DMCSessionResult:
+    """:func:`dmc_session` on a session table: reads the columns, site, date and frame, returns the columns to add.
+
+    ``site`` and ``date`` override the session's (lat/lon/h columns or frame
+    origin; ``time.epoch_utc`` plus the middle of the session).  Other
+    ``options`` are those of :func:`dmc_session`.
+    """
+    from sportfusion.core.meta import epoch_unix
+    from sportfusion.core.schema import floats, require_columns
+
+    require_columns(table, ("acc_x", "acc_y", "acc_z", "mag_x", "mag_y", "mag_z"), "dmc-attitude")
+    t = floats(table, "t")
+    when: float | str | None = date
+    if when is None:
+        epoch = epoch_unix(meta)
+        if epoch is not None:
+            when = epoch + float(np.median(t))
+    hill = meta.get("hill") or {}
+    g0 = options.pop("g0", None) or hill.get("g0")
+    return dmc_session(
+        t,
+        _xyz(table, "acc_"),  # type: ignore[arg-type]
+        _xyz(table, "mag_"),  # type: ignore[arg-type]
+        acc_kin=_xyz(table, "a"),
+        vel=_xyz(table, "v"),
+        azimuth_deg=float((meta.get("frame") or {}).get("azimuth_deg", 0.0)),
+        site=site or session_site(table, meta),
+        when=when,
+        g0=g0,  # type: ignore[arg-type]
+        **options,  # type: ignore[arg-type]
+    )

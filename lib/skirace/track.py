@@ -1,0 +1,217 @@
+"""Smooth a session's GNSS track with weighted smoothing splines (what ``spline-smooth`` does).
+
+Rows and values
+---------------
+A session's rows are the union of all sensors' times.  The spline is fitted
+to the rows that carry a local GNSS position (``gnss_x gnss_y gnss_z``
+finite) and then evaluated at **every** row inside the span of those epochs:
+GNSS rows, IMU rows in between, and rows inside data gaps (loss of lock) up
+to ``max_gap`` seconds long.  Rows before the first or after the last
+position, or inside a longer gap, get nulls (no extrapolation).
+
+``spline_filled`` is True on rows that have no position of their own and lie
+inside a data gap, i.e. between two consecutive position epochs more than 1.5
+times the median epoch spacing apart: there the value bridges missing GNSS
+data.  IMU rows between regular epochs are False.
+
+1-sigma (``std_x std_y std_z``) is written when the input carries position
+sigmas (``std_gnss_*``, else ``gnss_sigma_h``/``gnss_sigma_v``): the input
+sigmas propagated through the smoother (noise only) at the position epochs,
+interpolated linearly to rows between regular epochs, null inside gaps and for
+per-segment smoothing.
+
+Velocity and acceleration are the spline's first and second derivatives
+(eq 7) in the local frame; ``speed`` is ``|v|``, ``distance`` the curvilinear
+distance along the spline from the first epoch, and ``course`` the azimuth of
+the horizontal velocity, clockwise from north (frame azimuth added) [rad, in
+(-pi, pi]].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyarrow as pa
+
+from sportfusion.core.errors import InputError
+from sportfusion.core.rotations import local_to_ned
+from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, smoothing_spline
+
+GAP_FACTOR = 1.5  # an interval longer than this times the median epoch spacing is a data gap
+
+
+@dataclass
+class TrackResult:
+    """Columns to add (name -> array with NaN for null) plus what happened."""
+
+    columns: dict[str, np.ndarray | pa.Array]
+    lam: np.ndarray
+    info: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+
+def smooth_track(
+    t: np.ndarray,
+    pos: np.ndarray,
+    fix: np.ndarray | None = None,
+    sigma: np.ndarray | None = None,
+    *,
+    azimuth_deg: float = 0.0,
+    lam: float | None = 0.5,
+    segments: list[tuple[float, float, float]] | None = None,
+    weighting: str = "eq6",
+    w_float: float = 0.5,
+    w_trans: float = 1e-4,
+    no_trans: int = 5,
+    edge_factor: float = 2.0,
+    max_gap: float = 10.0,
+) -> TrackResult:
+    """Fit the weighted smoothing splines to a track and evaluate them at every row.
+
+    Parameters
+    ----------
+    t : (N,) row times [s].
+    pos : (N, 3) local GNSS position [m], NaN where the row has none.
+    fix : (N,) GGA fix quality (NaN/any value where unknown) or None (all fixed).
+    sigma : (N, 3) position 1-sigma [m] per axis, or None.
+    azimuth_deg : the local frame's x-axis azimuth [deg] (for ``course``).
+    lam : the paper's smoothing factor in [0, 1]; None for GCV per axis.
+    segments : per-segment lambda ``(t0 [s], t1 [s], lambda)``.
+    weighting : ``"eq6"`` (ambiguity status and sigma, eq 6) or ``"uniform"`` (one weight for all
+        epochs: 1 / the median sigma of the fixed epochs, so that ``lam`` smooths alike).
+    w_float, w_trans, no_trans, edge_factor : eq 6 parameters (:func:`sportfusion.estimators.spline.ambiguity_weights`).
+    max_gap : longest data gap [s] bridged; rows inside longer gaps are null.
+
+    Returns
+    -------
+    TrackResult
+        ``columns``: x y z vx vy vz ax ay az speed distance course
+        spline_filled (and std_x std_y std_z when sigmas were given).
+    """
+    t = np.asarray(t, float)
+    pos = np.asarray(pos, float)
+    has = np.all(np.isfinite(pos), axis=1)
+    warnings: list[str] = []
+    k = np.flatnonzero(has)
+    if k.size < 4:
+        raise InputError(f"only {k.size} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
+    tk = t[k]
+    yk = pos[k]
+    if weighting == "uniform":
+        # one weight for every epoch, on the scale of eq 6's fixed epochs so that lambda keeps its meaning
+        sk0 = None if sigma is None else np.asarray(sigma, float)[k]
+        scale = np.nanmedian(sk0, axis=0) if sk0 is not None and np.isfinite(sk0).any() else np.ones(3)
+        if fix is not None and sk0 is not None:
+            fixed = np.asarray(fix, float)[k] == 4
+            if fixed.any() and np.isfinite(sk0[fixed]).any():
+                scale = np.nanmedian(sk0[fixed], axis=0)
+        w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (k.size, 3))
+    elif weighting == "eq6":
+        if fix is None:
+            warnings.append("no gnss_fix column: every epoch is weighted as RTK fixed")
+            w_amb = np.ones(k.size)
+        else:
+            f = np.asarray(fix, float)[k]
+            w_amb = ambiguity_weights(
+                np.where(np.isfinite(f), f, -1).astype(int),
+                w_float=w_float,
+                w_trans=w_trans,
+                no_trans=no_trans,
+                edge_factor=edge_factor,
+            )
+        sk = None if sigma is None else np.asarray(sigma, float)[k]
+        w = epoch_weights(w_amb, sk)
+    else:
+        raise InputError(f"weighting {weighting!r} is not eq6 or uniform")
+    sk = None if sigma is None else np.asarray(sigma, float)[k]
+    if sk is not None and not np.isfinite(sk).any():
+        sk = None
+    if sk is not None:
+        ok = np.isfinite(sk) & (sk > 0)
+        for c in range(3):
+            if ok[:, c].any():
+                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
+            else:
+                sk = None
+                break
+    fit = smoothing_spline(tk, yk, w, lam, segments=segments, sigma=sk)
+
+    # rows that get a value: inside the span and not in a gap longer than max_gap
+    n = t.size
+    inside = (t >= tk[0]) & (t <= tk[-1])
+    seg = np.clip(np.searchsorted(tk, t, side="right") - 1, 0, tk.size - 2)
+    span = tk[seg + 1] - tk[seg]
+    step = float(np.median(np.diff(tk)))
+    in_gap = inside & ~has & (span > GAP_FACTOR * step)
+    too_long = inside & ~has & (span > max_gap)
+    cover = inside & ~too_long
+    if too_long.any():
+        warnings.append(f"{int(too_long.sum())} row(s) inside data gaps longer than {max_gap:g} s are left null")
+    rows = np.flatnonzero(cover)
+    val, d1, d2 = fit.spline.evaluate(t[rows])
+    cols: dict[str, np.ndarray] = {}
+
+    def put(name: str, values: np.ndarray) -> None:
+        out = np.full(n, np.nan)
+        out[rows] = values
+        cols[name] = out
+
+    for i, a in enumerate("xyz"):
+        put(a, val[:, i])
+        put(f"v{a}", d1[:, i])
+        put(f"a{a}", d2[:, i])
+    put("speed", np.linalg.norm(d1, axis=1))
+    put("distance", fit.spline.arc_length(t[rows]))
+    ned = local_to_ned(d1, azimuth_deg)
+    put("course", np.arctan2(ned[:, 1], ned[:, 0]))
+    filled = np.zeros(n, bool)
+    filled[rows] = in_gap[rows]
+    cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
+    if fit.std is not None:
+        for i, a in enumerate("xyz"):
+            s = np.interp(t[rows], tk, fit.std[:, i])
+            s[in_gap[rows]] = np.nan
+            put(f"std_{a}", s)
+    elif sigma is not None and segments:
+        warnings.append("1-sigma is not computed with per-segment lambda")
+    info = {
+        "epochs": int(k.size),
+        "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
+        "filled_rows": int(filled.sum()),
+        "lambda": [float(v) for v in fit.lam],  # outside the segments when segments are given
+        "penalty": [float(v) for v in fit.penalty],  # alpha = (1 - lambda) / lambda [s^3/m with weights in 1/m]
+    }
+    return TrackResult(cols, fit.lam, info, warnings)
+
+
+def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResult:
+    """:func:`smooth_track` on a session table: reads the columns, returns the columns to add.
+
+    Needs ``gnss_x gnss_y gnss_z`` (from ``gps2hill``); uses ``gnss_fix`` and the
+    sigmas ``std_gnss_*`` (else ``gnss_sigma_h``/``gnss_sigma_v``) when present,
+    and the frame azimuth from the metadata.  ``options`` are those of
+    :func:`smooth_track` except the arrays and ``azimuth_deg``.
+    """
+    from sportfusion.core.schema import floats
+
+    names = table.column_names
+    need = ("gnss_x", "gnss_y", "gnss_z")
+    missing = [c for c in need if c not in names]
+    if missing:
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}: spline-smooth needs the GNSS track in the local frame; "
+            "run gps2hill first"
+        )
+    t = floats(table, "t")
+    pos = np.column_stack([floats(table, c) for c in need])
+    fix = floats(table, "gnss_fix") if "gnss_fix" in names else None
+    sigma = None
+    if all(f"std_gnss_{a}" in names for a in "xyz"):
+        sigma = np.column_stack([floats(table, f"std_gnss_{a}") for a in "xyz"])
+    elif "gnss_sigma_h" in names:
+        sh = floats(table, "gnss_sigma_h")
+        sv = floats(table, "gnss_sigma_v") if "gnss_sigma_v" in names else sh
+        sigma = np.column_stack((sh, sh, sv))
+    azimuth = float((meta.get("frame") or {}).get("azimuth_deg", 0.0))
+    return smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, **options)  # type: ignore[arg-type]
