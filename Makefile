@@ -12,13 +12,13 @@ DEMO ?= demo-out
 SESSIONS ?= sessions
 BATCH ?= batch-out
 
-.PHONY: all test test-fast lint format demo bench fixtures clean batch
+.PHONY: all test test-fast lint format demo bench fixtures clean batch cluster-batch
 
 all: test
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'
 	touch $@
 
 test: $(STAMP)
@@ -57,8 +57,20 @@ JOBS ?= 2
 batch: $(STAMP)
 	$(MAKE) --no-print-directory -j $(JOBS) -f pipelines/batch.mk SESSIONS=$(SESSIONS) OUT=$(BATCH)
 
+# the same batch through Snakemake (the `cluster` extra): locally on JOBS cores, or with PROFILE on a
+# scheduler (pipelines/profiles/slurm is an example); RETRY_FAILED=1 also redoes the sessions that failed
+PROFILE ?=
+RETRY_FAILED ?=
+cluster-batch: $(STAMP)
+	@test -d "$(SESSIONS)" || { echo "cluster-batch: no sessions folder '$(SESSIONS)': pass SESSIONS=dir (one sub-folder per session with its config.mk) and BATCH=out"; exit 2; }
+	@if [ -n "$(RETRY_FAILED)" ]; then for e in $(BATCH)/*/error; do [ -e "$$e" ] && rm -f "$${e%error}.done"; done; true; fi
+	$(BIN)/snakemake -s pipelines/Snakefile -d $(abspath $(BATCH)) --quiet rules \
+	  --config sessions=$(abspath $(SESSIONS)) out=$(abspath $(BATCH)) bin=$(abspath $(BIN))/ \
+	  $(if $(PROFILE),--profile $(PROFILE),--cores $(JOBS) --keep-going)
+	@n=$$(ls $(BATCH)/*/error 2>/dev/null | wc -l); [ "$$n" -eq 0 ] || { echo "cluster-batch: $$n session(s) failed, listed in $(BATCH)/summary.txt"; exit 1; }
+
 bench: $(STAMP)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,bench]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster,bench]'
 	$(BIN)/python bench/report.py -o bench-report.md
 
 clean:
