@@ -21,10 +21,20 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'
 	touch $@
 
-test: $(STAMP)
+# the report's browser test runs Debian's Chromium and ChromeDriver (installed here when missing)
+BROWSER := $(VENV)/.browser
+$(BROWSER): | $(STAMP)
+	@if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null; then \
+	  echo "installing Debian's chromium and chromium-driver for the report's browser test, about a minute"; \
+	  SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium chromium-driver >/dev/null; \
+	fi
+	touch $@
+
+test: $(STAMP) $(BROWSER)
 	$(BIN)/python -m pytest -q
 
-test-fast: $(STAMP)
+test-fast: $(STAMP) $(BROWSER)
 	$(BIN)/python -m pytest -q -m "not slow"
 
 lint: $(STAMP)
@@ -51,6 +61,7 @@ demo: $(STAMP)
 	for f in $(DEMO)/*/evaluation.txt $(DEMO)/*/table7.txt; do [ -f "$$f" ] || continue; \
 	  echo "== $$f"; head -n 6 "$$f"; done
 	@echo "plots: $(DEMO)/plots/"; ls $(DEMO)/plots
+	@echo "pages for people (open in a browser): $(DEMO)/index.html, $(DEMO)/<sport>/report.html"
 
 # a sessions folder (one sub-folder per session with config.mk), N jobs: make batch SESSIONS=dir JOBS=2
 JOBS ?= 2

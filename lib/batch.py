@@ -2,8 +2,9 @@
 
 ``pipelines/batch.mk`` runs ``pipelines/session.mk`` for every ``SESSIONS/<name>/config.mk`` into
 ``OUT/<name>/`` (with ``make -k -j N``: one bad session does not stop the others) and then
-``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy
-and a readable table, listing each failed session with its error line.
+``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy,
+a readable table listing each failed session with its error line, and ``OUT/index.html`` (the batch's
+page for people, linking each session's ``report.html``).
 """
 
 from __future__ import annotations
@@ -268,6 +269,11 @@ def main(argv: list[str] | None = None) -> int:
     pacsv.write_csv(table, args.out / "summary.csv")
     text = format_summary(rows)
     (args.out / "summary.txt").write_text(text + "\n")
+    from sportfusion.report.batch import batch_index, session_pages
+
+    names = [r["session"] for r in rows]
+    index = batch_index(table, session_pages(args.out, names), f"Batch report: {args.sessions.name}")
+    sfio.write_bytes(index.encode("utf-8"), args.out / "index.html")
     print(text)
     return 0 if all(r["status"] == "ok" for r in rows) else 1
 
