@@ -30,7 +30,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
-FORMATS = ("bouldering", "phyphox", "rtklib", "xsens", "nmea", "gpx", "csvmap")
+FORMATS = ("bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "nmea", "gpx", "csvmap")
 
 
 @dataclass
@@ -109,7 +109,7 @@ def detect_format(path: Path) -> str:
         if _module(fmt).sniff(path, head):
             return fmt
     raise InputError(
-        f"{path}: format not recognised; expected phyphox (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
+        f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
         "Xsens export, a bouldering trial folder, or a CSV with --map (or give --format)"
     )
 
