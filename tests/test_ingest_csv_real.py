@@ -17,7 +17,7 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import Stream, merge_streams
-from sportfusion.ingest import Options, csvmap, read_recording
+from sportfusion.ingest import Options, csvmap
 from sportfusion.ingest._text import parse_unit, scaled_factor
 
 BIN = Path(sys.executable).parent
