@@ -128,8 +128,9 @@ def main(
     map_up: str,
     holds_out: str | None,
 ) -> None:
-    """Read raw recordings (phyphox CSV export as ZIP or folder, NMEA 0183, GPX 1.1,
-    RTKLIB .pos, Xsens MT Manager text export, a bouldering-dataset trial folder,
+    """Read raw recordings (phyphox CSV export as ZIP or folder, Sensor Logger ZIP or
+    folder, NMEA 0183, GPX 1.1, RTKLIB .pos, Xsens MT Manager text export, a
+    bouldering-dataset trial folder, a session Parquet, our own CSV from inspect --csv,
     or any CSV with a column map) and merge them into one session table on one
     clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
     are the union of all sample times, a sensor's columns null elsewhere."""
