@@ -17,7 +17,7 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import Stream, merge_streams
-from sportfusion.ingest import Options, csvmap
+from sportfusion.ingest import Options, csvmap, read_recording
 from sportfusion.ingest._text import parse_unit, scaled_factor
 
 BIN = Path(sys.executable).parent
@@ -134,6 +134,8 @@ def test_inspect_csv_reads_back_without_a_map(tmp_path):
     assert table.column("event").to_pylist() == table0.column("event").to_pylist()
     assert table.column("grip").to_pylist() == table0.column("grip").to_pylist()
     assert table.schema.field("lat").metadata[b"unit"] == b"deg"
+    assert table.schema.field("acc_x").metadata[b"unit"] == b"m/s^2"
+    assert meta["units"] == {"mag_x": "1"}  # a normalised magnetometer stays normalised
     assert csvmap.sniff(csv, csv.read_bytes()[:4096])
 
 
@@ -173,3 +175,16 @@ def test_pos_headerless_imu_and_a_session_merge_in_one_call(tmp_path):
     bad = [str(BIN / "ingest"), str(pos), str(imu), "--map", "nope.csv:t=1", "-o", str(out)]
     proc = subprocess.run(bad, capture_output=True, timeout=120)
     assert proc.returncode == 2 and proc.stdout == b"" and b"not one of the inputs" in proc.stderr
+
+
+def test_contract_csv_field_in_microtesla_stays_microtesla(tmp_path):
+    p = tmp_path / "own.csv"
+    p.write_text('"t","mag_x","mag_y","mag_z","gnss_fix"\n0,20.5,1,43.25,4\n0.01,20.5,1.5,43,\n')
+    rec = read_recording(p)
+    assert rec.format == "csvmap" and "units" not in rec.meta
+    assert vals(rec, "mag_z").tolist() == [43.25, 43.0]
+    assert rec.streams[0].columns["gnss_fix"].to_pylist() == [4, None]
+    p.write_text('"t","mag_x","mag_y","mag_z"\n0,0.4,0.02,0.9\n')
+    rec = read_recording(p)
+    assert rec.meta["units"] == {"mag_x": "1", "mag_y": "1", "mag_z": "1"}
+    assert any("read as normalised" in w for w in rec.warnings)

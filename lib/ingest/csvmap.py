@@ -235,6 +235,8 @@ def read(path: Path, opts: Options) -> Recording:
         elif given is not None:
             v = v * scaled_factor(given, reg.unit, f"--units {col_name}")
         cols[col_name] = v
+    if contract:
+        _normalised_mag(cols, units_meta, warnings)
     meta: dict[str, object] = {"columns": dict(opts.column_map) if not contract else "contract names"}
     if headerless:
         meta["header"] = "none (columns by number)"
@@ -243,6 +245,25 @@ def read(path: Path, opts: Options) -> Recording:
     if contract and epoch is None:
         warnings.append("t is relative (a CSV carries no epoch): no absolute time; align it by --offset NAME=SECONDS")
     return Recording(str(path), "csvmap", [Stream(path.stem, t, cols)], epoch, meta, warnings)
+
+
+#: Largest median field magnitude [uT] of a magnetometer taken as normalised (the Earth's field is 22-67 uT).
+NORMALISED_BELOW = 5.0
+
+
+def _normalised_mag(cols: dict[str, object], units: dict[str, str], warnings: list[str]) -> None:
+    """Our own CSV loses the unit ``1`` of a normalised magnetometer: restore it from the field's size."""
+    names = [c for c in ("mag_x", "mag_y", "mag_z") if c in cols]
+    if not names:
+        return
+    m = np.column_stack([np.asarray(cols[c], dtype=np.float64) for c in names])
+    good = np.isfinite(m).all(axis=1)
+    if not good.any():
+        return
+    size = float(np.median(np.linalg.norm(m[good], axis=1)))
+    if size < NORMALISED_BELOW:
+        units.update({c: "1" for c in names})
+        warnings.append(f"{'/'.join(names)} read as normalised (unit 1): median |m| = {size:.3g}, no Earth field in uT")
 
 
 def _valid_unit(spec: str) -> bool:
