@@ -159,3 +159,17 @@ def test_bad_time_cell_is_one_clear_error(tmp_path):
     (d / "Gyroscope.csv").write_text(f"time,seconds_elapsed,z,y,x\n{T0},0,1,2,3\n,0.01,1,2,3\n")
     with pytest.raises(InputError, match="Gyroscope.csv: row 3 has no time"):
         sensorlogger.read(d, None)
+
+
+def test_rows_repeating_a_time_are_dropped_and_counted(tmp_path):
+    d = tmp_path / "dup"
+    d.mkdir()
+    (d / "Gyroscope.csv").write_text(
+        "time,seconds_elapsed,z,y,x\n"
+        f"{T0},0,1,2,3\n{T0 + 10},0,1,2,4\n{T0 + 10},0,9,9,9\n{T0 + 5},0,1,2,5\n{T0},0,1,2,3\n"
+    )
+    rec = sensorlogger.read(d, None)
+    g = stream(rec, "Gyroscope")
+    np.testing.assert_allclose(g.t, [0.0, 10e-9, 5e-9], atol=1e-18)  # order kept; merge sorts later
+    assert col(g, "gyr_x").tolist() == [3.0, 4.0, 5.0]
+    assert rec.warnings == ["Gyroscope.csv: 2 row(s) repeating an earlier time dropped (first kept)"]

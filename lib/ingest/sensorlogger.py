@@ -13,7 +13,9 @@ UNITS.md, COORDINATES.md, CROSSPLATFORM.md).
 Time
     ``time`` is read as a 64-bit integer and the session epoch (the earliest
     sample of all files) is subtracted in integer nanoseconds before anything
-    becomes float64, so ``t`` keeps the nanoseconds.  A file without ``time``
+    becomes float64, so ``t`` keeps the nanoseconds.  Rows repeating a time
+    their file already gave (the app documents sensors re-sending cached
+    values) are dropped, the first kept, and counted in a warning.  A file without ``time``
     falls back to ``seconds_elapsed`` without an absolute clock (warning).
 
 Specific force (``acc_x/y/z``, m/s^2, device axes x right, y up along the
@@ -215,6 +217,15 @@ def read(path: Path, opts: Options) -> Recording:
             "Gyroscope.csv, Location.csv starting with time,seconds_elapsed"
         )
     ns = {k: _ns(t, fnames[k]) for k, t in tables.items()}
+    for k, v in ns.items():  # a sensor may re-send cached rows with a time it already gave: keep the first
+        if v is None:
+            continue
+        _, first = np.unique(v, return_index=True)
+        if first.size < v.size:
+            keep = np.sort(first)
+            warnings.append(f"{fnames[k]}: {v.size - keep.size} row(s) repeating an earlier time dropped (first kept)")
+            tables[k] = tables[k].take(pa.array(keep))
+            ns[k] = v[keep]
     have_ns = [v for v in ns.values() if v is not None]
     epoch_ns = min(int(v.min()) for v in have_ns) if have_ns else None
     epoch = None if epoch_ns is None else float(epoch_ns // 10**9) + (epoch_ns % 10**9) * 1e-9

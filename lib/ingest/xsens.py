@@ -97,9 +97,11 @@ def _unwrap(v: np.ndarray, bits: int) -> np.ndarray:
 def _timing(table: Any, names: list[str], header: dict[str, str], opts: Options, path: Path, warnings: list[str]):
     """Sample times [s] from the first sample, the rows kept, and where the times came from."""
     rate = None
-    m = _RATE.search(header.get("Update Rate", header.get("Sampling Rate", header.get("Sample Rate", ""))))
-    if m:
-        rate = float(m.group(1))
+    for key, val in header.items():  # "Update Rate: 100.0Hz", "Sampling Rate", "Sample rate", ...
+        m = _RATE.search(val) if "rate" in key.lower() else None
+        if m:
+            rate = float(m.group(1))
+            break
     given = getattr(opts, "rate", None)
     if given and rate and abs(given - rate) > 1e-9 * rate:
         warnings.append(f"--rate {given:g} Hz overrides the header's {rate:g} Hz")
