@@ -188,3 +188,17 @@ def test_contract_csv_field_in_microtesla_stays_microtesla(tmp_path):
     rec = read_recording(p)
     assert rec.meta["units"] == {"mag_x": "1", "mag_y": "1", "mag_z": "1"}
     assert any("read as normalised" in w for w in rec.warnings)
+
+
+def test_comment_lines_and_iso_times_in_a_headerless_file(tmp_path):
+    p = tmp_path / "logger.txt"
+    p.write_text(
+        "# logger v2.1, serial 42\n# units: mg\n2026-01-05T13:00:00.000Z;12;-980\n2026-01-05T13:00:00.010Z;10;-981\n"
+    )
+    rec = csvmap.read(
+        p, Options(column_map={"t": "1", "acc_x": "2", "acc_z": "3"}, time_unit="iso", units={"acc": "mg"})
+    )
+    assert rec.epoch_utc == pytest.approx(EPOCH)
+    np.testing.assert_allclose(rec.streams[0].t, [0.0, 0.01], atol=1e-9)
+    np.testing.assert_allclose(vals(rec, "acc_z"), [-0.980 * G, -0.981 * G])
+    assert rec.warnings == ["2 leading comment line(s) skipped"]

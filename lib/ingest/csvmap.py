@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import calendar
 import datetime as dt
+import re
 from pathlib import Path
 
 import numpy as np
@@ -77,9 +78,16 @@ def sniff(path: Path, head: bytes) -> bool:
     return path.is_file() and _contract_headers(head) is not None
 
 
-def _is_number(text: str) -> bool:
+_ISO = re.compile(r"^\d{4}-\d{2}-\d{2}[ T]\d{2}:\d{2}")
+
+
+def _is_value(text: str) -> bool:
+    """A data cell rather than a header: a number or an ISO date-time."""
+    cell = text.strip().strip('"')
+    if _ISO.match(cell):
+        return True
     try:
-        float(text.strip().strip('"'))
+        float(cell)
     except ValueError:
         return False
     return True
@@ -158,9 +166,16 @@ def read(path: Path, opts: Options) -> Recording:
     if "t" not in cmap:
         raise InputError("a generic CSV needs the time column mapped: expected --map t=HEADER,acc_x=HEADER,...")
     units = _resolve_units(dict(opts.units), cmap)
-    text = decode(raw_bytes)
-    first = [c for c in text.lstrip("\ufeff").splitlines()[0].split(dialect(text)[0])] if text.strip() else []
-    headerless = bool(first) and all(_is_number(c) for c in first if c.strip())
+    text = decode(raw_bytes).lstrip("\ufeff")
+    lines = text.splitlines()
+    skip = 0
+    while skip < len(lines) and (not lines[skip].strip() or lines[skip].lstrip().startswith(("#", "//", "%"))):
+        skip += 1  # comment lines some loggers write before the table
+    if skip:
+        text = "\n".join(lines[skip:])
+        warnings.append(f"{skip} leading comment line(s) skipped")
+    first = text.splitlines()[0].split(dialect(text)[0]) if text.strip() else []
+    headerless = bool(first) and all(_is_value(c) for c in first if c.strip())
     table = read_delimited(text, str(path), numeric=False, header=not headerless)
     headers = table.column_names
     for c, h in list(cmap.items()):  # column numbers (1-based) -> names
