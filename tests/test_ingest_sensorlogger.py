@@ -118,6 +118,7 @@ def test_android_total_acceleration_and_standardised_ios(tmp_path):
     acc = stream(rec, "TotalAcceleration")
     assert [col(acc, f"acc_{a}")[0] for a in "xyz"] == pytest.approx([9.1, 9.2, 9.3])
     assert rec.meta["acc_from"] == "TotalAcceleration"
+    assert "Accelerometer.csv, Gravity.csv not read: TotalAcceleration.csv gives the specific force" in rec.warnings
     rec = read_recording(export(tmp_path, "iOS", standard="true"))
     acc = stream(rec, "Accelerometer")
     assert col(acc, "acc_z")[0] == pytest.approx(0.3 - 9.8)  # standardised: Android sign, no flip

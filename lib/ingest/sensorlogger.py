@@ -257,6 +257,9 @@ def read(path: Path, opts: Options) -> Recording:
         acc = _xyz(tables["totalacceleration"], "TotalAcceleration.csv")
         streams.append(Stream("TotalAcceleration", times("totalacceleration"), _cols("acc", acc)))
         acc_from = "TotalAcceleration"
+        unused = [fnames[k] for k in ("accelerometer", "gravity") if k in tables]
+        if unused:
+            warnings.append(f"{', '.join(unused)} not read: TotalAcceleration.csv gives the specific force")
     elif "accelerometer" in tables and "gravity" in tables:
         ta, tg = times("accelerometer"), times("gravity")
         lin = _xyz(tables["accelerometer"], "Accelerometer.csv")
