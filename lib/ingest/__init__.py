@@ -30,7 +30,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
-FORMATS = ("bouldering", "phyphox", "rtklib", "xsens", "nmea", "gpx", "csvmap")
+FORMATS = ("session", "bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "nmea", "gpx", "csvmap")
 
 
 @dataclass
@@ -57,6 +57,9 @@ class Options:
         Bouldering dataset: folder of the hold map (``routes/``, ``start_handles.json``); default: searched.
     map_up : str
         Bouldering dataset: the hold map's up axis (``x y z -x -y -z``).
+    rate : float or None
+        Sampling rate [Hz] of an input whose file does not state one: Xsens exports
+        timed by PacketCounter, generic CSVs whose time column counts ticks.
     """
 
     geoid_offset: float | None = None
@@ -68,6 +71,7 @@ class Options:
     date: str | None = None
     hold_map: str | None = None
     map_up: str = "z"
+    rate: float | None = None
 
 
 @dataclass
@@ -109,8 +113,8 @@ def detect_format(path: Path) -> str:
         if _module(fmt).sniff(path, head):
             return fmt
     raise InputError(
-        f"{path}: format not recognised; expected phyphox (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
-        "Xsens export, a bouldering trial folder, or a CSV with --map (or give --format)"
+        f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
+        "Xsens export, a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
     )
 
 
