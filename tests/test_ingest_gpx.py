@@ -13,7 +13,7 @@ import pytest
 
 from sportfusion.core import io as sfio
 from sportfusion.core.errors import InputError
-from sportfusion.ingest import FORMATS, Options, gpx
+from sportfusion.ingest import FORMATS, Options, combine, gpx
 
 BIN = Path(sys.executable).parent
 
@@ -74,7 +74,8 @@ def test_track_with_times_segments_and_extensions(tmp_path):
     assert s.t.tolist() == [0.0, 0.5, 1.5, 2.0]  # both segments, +01:00 zone converted; the waypoint ignored
     assert col(rec, "lat") == [47.4049, 47.4050, 47.4051, 47.4052]
     assert col(rec, "h_msl") == [912.5, 913.0, None, 914.0]  # missing <ele> -> null
-    assert col(rec, "h") == [None] * 4  # no geoid offset: ellipsoidal h unknown
+    assert "h" not in s.columns  # no geoid offset: ellipsoidal h unknown, so no h column (MSL only)
+    assert col(rec, "label") == ["run"] * 4  # the track's <name>
     assert sum("--geoid-offset" in w for w in rec.warnings) == 1
     assert col(rec, "gnss_fix") == [1, 2, 0, 3]
     assert col(rec, "gnss_sats") == [9] * 4
@@ -119,19 +120,27 @@ def test_identical_times_error(tmp_path):
     assert gpx.read(p, Options(no_time=True)).streams[0].t.tolist() == [0.0, 1.0, 2.0]
 
 
-def test_backwards_time_error_but_exact_repeat_allowed(tmp_path):
+def test_backwards_time_and_exact_repeat_are_read_and_ordered_by_the_merge(tmp_path):
+    # was refused before issue 15: a time stepping back is now ordered by ingest's one policy
     back = [trkpt(1, 2, 5.0, "2026-01-05T13:00:01Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:00Z")]
-    with pytest.raises(InputError, match="track point 1 .* is not later than point 0"):
-        gpx.read(write(tmp_path, [back]), Options())
+    rec = gpx.read(write(tmp_path, [back]), Options())
+    assert rec.streams[0].t.tolist() == [1.0, 0.0]  # absolute time kept: the earliest point is the epoch
+    table, meta, _ = combine([rec])
+    assert table.column("t").to_pylist() == [0.0, 1.0]
+    assert table.column("lat").to_pylist() == [1.1, 1.0]
+    assert meta["sources"][0]["time_order"]["gpx"]["backward_steps"] == 1
     a, b = trkpt(1, 2, 5.0, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:01Z")
     rec = gpx.read(write(tmp_path, [[a, b], [b, trkpt(1.2, 2, 5.0, "2026-01-05T13:00:02Z")]]), Options())
     assert rec.streams[0].t.tolist() == [0.0, 1.0, 1.0, 2.0]  # the repeat is folded by the merge
+    table, meta, _ = combine([rec])
+    assert table.num_rows == 3 and meta["sources"][0]["time_order"]["gpx"]["duplicates_dropped"] == 1
 
 
 def test_no_elevation_at_all(tmp_path):
     p = write(tmp_path, [[trkpt(1, 2, None, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, None, "2026-01-05T13:00:01Z")]])
     rec = gpx.read(p, Options(geoid_offset=47.9))
-    assert col(rec, "h") == [None, None] and col(rec, "h_msl") == [None, None]
+    assert "h" not in rec.streams[0].columns and "h_msl" not in rec.streams[0].columns  # a 2-D track
+    assert any("2-D track" in w for w in rec.warnings)
 
 
 def test_routes_only_and_broken_xml(tmp_path):

@@ -98,17 +98,15 @@ def test_gga_without_geoid_separation_and_without_date(tmp_path):
             "GPGGA,120001.0,4807.038,N,01131.000,E,1,08,0.9,545.9,M,,M,,",
         ],
     )
-    rec = nmea.read(p, Options())
-    assert col(rec, "h") == [None, None]
-    assert col(rec, "h_msl") == pytest.approx([545.4, 545.9])
-    sep = [w for w in rec.warnings if "geoid separation" in w]
-    assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
-    # no RMC/ZDA: no absolute time, t = seconds of the UTC day
-    assert rec.epoch_utc is None
-    assert rec.streams[0].t.tolist() == [43200.0, 43201.0]
-    assert any("no date" in w for w in rec.warnings)
+    # no RMC/ZDA: a time of day alone cannot be placed in UTC -> refused, naming --date (issue 17)
+    with pytest.raises(InputError, match=r"no date .*first fix at 12:00:00 UTC.*--date YYYY-MM-DD"):
+        nmea.read(p, Options())
     # the date option places it in UTC
     dated = nmea.read(p, Options(date="2026-01-05"))
+    assert col(dated, "h") == [None, None]
+    assert col(dated, "h_msl") == pytest.approx([545.4, 545.9])
+    sep = [w for w in dated.warnings if "geoid separation" in w]
+    assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
     assert dated.epoch_utc == calendar.timegm((2026, 1, 5, 12, 0, 0))
     assert dated.streams[0].t.tolist() == [0.0, 1.0]
     assert not any("no date" in w for w in dated.warnings)
@@ -135,7 +133,7 @@ def test_midnight_rollover(tmp_path):
     # a GGA-only log across midnight keeps counting seconds
     p2 = write(tmp_path, ["GPGGA,235959.5,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
                           "GPGGA,000000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"], "b.nmea")  # fmt: skip
-    assert nmea.read(p2, Options()).streams[0].t.tolist() == [86399.5, 86400.0]
+    assert nmea.read(p2, Options(date="2024-12-31")).streams[0].t.tolist() == [0.5, 1.0]  # epoch: whole second
 
 
 def test_decimal_minutes_by_hand():

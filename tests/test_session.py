@@ -22,13 +22,15 @@ def test_shared_instants_share_a_row():
     assert rep.rows == {"imu": 3, "gps": 2}
 
 
-def test_identical_repeats_folded_and_counted_conflicts_refused():
+def test_identical_repeats_folded_and_counted_conflicts_resolved_first_wins():
     g = Stream("gps", [0.0, 1.0, 1.0, 2.0], {"lat": [1.0, 2.0, 2.0, 3.0]})
     table, rep = merge_streams([g])
     assert table.num_rows == 3 and rep.duplicates == {"gps": 1}
+    # issue 15/17: two different samples at one time are no longer refused: the first (file order) wins
     bad = Stream("gps", [0.0, 1.0, 1.0], {"lat": [1.0, 2.0, 2.5]})
-    with pytest.raises(InputError, match="two different samples at t = 1.000000"):
-        merge_streams([bad])
+    table, rep = merge_streams([bad])
+    assert table.column("lat").to_pylist() == [1.0, 2.0]
+    assert rep.order["gps"].conflicts == 1 and rep.order["gps"].conflict_rows == [(2, 1.0)]
 
 
 def test_same_column_from_two_inputs_at_one_instant_refused():

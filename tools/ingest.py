@@ -9,7 +9,7 @@ import click
 from sportfusion.core.errors import InputError
 from sportfusion.core.io import write_table
 from sportfusion.core.meta import add_provenance
-from sportfusion.ingest import FORMATS, Options, combine, read_recording
+from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_pairs
 
@@ -145,8 +145,10 @@ def main(
         write_table(holds[0][0], add_provenance(holds[0][1], tool.name, tool.params), holds_out)
     elif holds:
         tool.info("a hold map was found; write it for pf-holds with --holds-out FILE")
-    tool.info(f"{table.num_rows} rows from {len(raw)} input(s)")
-    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw]})
+    order = time_order_totals(meta)
+    done = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in order.items() if v and k != "samples")
+    tool.info(f"{table.num_rows} rows from {len(raw)} input(s); time order: {done or 'already in order'}")
+    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw], "time_order": order})
 
 
 def _seconds(text: str) -> float:

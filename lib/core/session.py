@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -33,9 +34,12 @@ def validate_time(table: pa.Table) -> np.ndarray:
         step = np.diff(t)
         if (step <= 0).any():
             i = int(np.argmax(step <= 0))
+            n_bad = int((step <= 0).sum())
+            what = "repeats the time of" if step[i] == 0 else "is earlier than"
             raise InputError(
-                f"column 't' is not strictly increasing at row {i + 1} "
-                f"({t[i]:.6f} s then {t[i + 1]:.6f} s), expected strictly increasing times"
+                f"column 't' is not strictly increasing at row {i + 1}: it {what} row {i} "
+                f"(t = {t[i]:.6f} s then {t[i + 1]:.6f} s; {n_bad} such step(s) in all), "
+                "expected strictly increasing times"
             )
     return t
 
@@ -66,50 +70,168 @@ class Stream:
 
 
 @dataclass
+class TimeOrder:
+    """What :func:`order_by_time` did to one stream (the one time-ordering policy of ``ingest``).
+
+    Attributes
+    ----------
+    samples : int
+        Samples in the stream as the reader gave them.
+    backward_steps : int
+        Places where the time stepped back in the reader's order.
+    reordered : int
+        Samples that are not at their input position after the stable sort.
+    no_time : int
+        Samples without a finite time, dropped (a row needs a time).
+    duplicates : int
+        Exact duplicates dropped: same time and the same value in every column.
+    merged : int
+        Samples at the time of an earlier one whose values complete it without
+        contradicting it (each column non-null in at most one of them, or equal):
+        folded into that row, nothing lost.
+    conflicts : int
+        Samples at the time of an earlier one with a different value in some
+        column: the earlier sample (file order) wins those columns, the later
+        one only fills the columns the earlier left null.
+    conflict_rows : list of (int, float)
+        Input index (0-based, the reader's order) and time [s] of the first
+        conflicting samples (at most 5), for messages.
+    no_time_rows : list of int
+        Input index of the first samples without a time (at most 5).
+    """
+
+    samples: int = 0
+    backward_steps: int = 0
+    reordered: int = 0
+    no_time: int = 0
+    duplicates: int = 0
+    merged: int = 0
+    conflicts: int = 0
+    conflict_rows: list[tuple[int, float]] = field(default_factory=list)
+    no_time_rows: list[int] = field(default_factory=list)
+
+    def counts(self) -> dict[str, int]:
+        """The counts as a plain dict (for provenance and metadata)."""
+        return {
+            "samples": self.samples,
+            "backward_steps": self.backward_steps,
+            "reordered": self.reordered,
+            "no_time_dropped": self.no_time,
+            "duplicates_dropped": self.duplicates,
+            "same_time_merged": self.merged,
+            "same_time_conflicts": self.conflicts,
+        }
+
+    def describe(self) -> str:
+        """One short phrase of what was done, empty when the stream was already in order."""
+        parts = []
+        if self.backward_steps:
+            parts.append(f"{self.backward_steps} backward time step(s), {self.reordered} sample(s) reordered")
+        if self.no_time:
+            parts.append(f"{self.no_time} sample(s) without a time dropped")
+        if self.duplicates:
+            parts.append(f"{self.duplicates} exact duplicate(s) dropped")
+        if self.merged:
+            parts.append(f"{self.merged} same-time sample(s) merged")
+        if self.conflicts:
+            parts.append(f"{self.conflicts} same-time conflict(s): first in file order kept")
+        return ", ".join(parts)
+
+
+def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
+    """Apply the time-ordering policy to one stream: sort, fold same-time samples, count.
+
+    The policy, for every format ``ingest`` reads:
+
+    1. Time stays absolute (nothing is re-stamped or shifted).
+    2. Samples are sorted by time with a *stable* sort, so samples at one
+       instant keep the reader's (file) order.
+    3. Samples at the same time become one row: an exact duplicate is dropped;
+       a sample that only completes the first (fills columns it left null,
+       agrees where both have a value) is merged into it; where they disagree,
+       the first in file order wins and the later sample's other values still
+       fill the nulls.  Every case is counted in the returned :class:`TimeOrder`
+       (conflicts with their input index and time).
+    4. Samples without a finite time cannot be placed on a row: they are
+       dropped and counted, never silently.
+
+    Parameters
+    ----------
+    stream : Stream
+        One sensor's samples in the reader's order, times [s].
+
+    Returns
+    -------
+    stream : Stream
+        Strictly increasing times, columns as Arrow arrays of their registered types.
+    report : TimeOrder
+    """
+    t_in = np.asarray(stream.t, dtype=np.float64)
+    rep = TimeOrder(samples=int(t_in.size))
+    cols_in = {k: schema.to_arrow(k, v) for k, v in stream.columns.items()}
+    finite = np.isfinite(t_in)
+    idx_in = np.flatnonzero(finite)
+    rep.no_time = int(t_in.size - idx_in.size)
+    rep.no_time_rows = [int(i) for i in np.flatnonzero(~finite)[:5]]
+    t_ok = t_in[idx_in]
+    rep.backward_steps = int((np.diff(t_ok) < 0).sum()) if t_ok.size > 1 else 0
+    order = idx_in[np.argsort(t_ok, kind="stable")]
+    rep.reordered = int((order != idx_in).sum())
+    t = t_in[order]
+    cols = {k: c.take(pa.array(order)) for k, c in cols_in.items()}
+    if t.size < 2 or not (np.diff(t) == 0).any():
+        return Stream(stream.name, t, cols), rep
+    start = np.flatnonzero(np.r_[True, np.diff(t) != 0])  # first row of each instant
+    group = np.cumsum(np.r_[True, np.diff(t) != 0]) - 1  # instant of each row
+    first = start[group]
+    later = np.flatnonzero(first != np.arange(t.size))  # rows folded into an earlier one
+    exact = np.ones(later.size, dtype=bool)
+    clash = np.zeros(later.size, dtype=bool)
+    out: dict[str, pa.Array] = {}
+    n = t.size
+    for k, c in cols.items():
+        valid = ~np.asarray(c.is_null().to_numpy(zero_copy_only=False), dtype=bool)
+        a, b = c.take(pa.array(later)), c.take(pa.array(first[later]))
+        both = valid[later] & valid[first[later]]
+        same = np.asarray(pc.fill_null(pc.equal(a, b), False).to_numpy(zero_copy_only=False), dtype=bool)
+        exact &= (both & same) | (~valid[later] & ~valid[first[later]])
+        clash |= both & ~same
+        # per instant, the first non-null value in file order (the first sample's own where it has one)
+        cand = np.where(valid, np.arange(n), n)
+        pick = np.minimum.reduceat(cand, start)
+        pick = np.where(pick < n, pick, start)
+        out[k] = c.take(pa.array(pick))
+    rep.duplicates = int(exact.sum())
+    rep.conflicts = int(clash.sum())
+    rep.merged = int(later.size - rep.duplicates - rep.conflicts)
+    rep.conflict_rows = [(int(order[i]), float(t[i])) for i in later[clash][:5]]
+    return Stream(stream.name, t[start], out), rep
+
+
+@dataclass
 class MergeReport:
-    """What :func:`merge_streams` did: rows per stream and duplicates folded."""
+    """What :func:`merge_streams` did: rows per stream, duplicates folded, time order per stream."""
 
     rows: dict[str, int] = field(default_factory=dict)
     duplicates: dict[str, int] = field(default_factory=dict)
+    order: dict[str, TimeOrder] = field(default_factory=dict)
 
 
-def _dedupe(stream: Stream, report: MergeReport) -> Stream:
-    """Sort a stream by time and fold rows with identical time and identical values.
-
-    Two different samples at one instant cannot both live on one row; that is
-    an error, not something to drop silently.
-    """
-    t = stream.t
-    if not np.isfinite(t).all():
-        raise InputError(f"{stream.name}: {int((~np.isfinite(t)).sum())} sample(s) without a valid time")
-    order = np.argsort(t, kind="stable")
-    cols = {k: schema.to_arrow(k, v).take(pa.array(order)) for k, v in stream.columns.items()}
-    t = t[order]
-    dup = np.flatnonzero(np.diff(t) == 0) + 1
-    if dup.size:
-        keep = np.ones(t.size, bool)
-        for i in dup:
-            same = all(c[int(i)].equals(c[int(i) - 1]) for c in cols.values())
-            if not same:
-                raise InputError(
-                    f"{stream.name}: two different samples at t = {t[i]:.6f} s; "
-                    "expected one sample per instant per sensor"
-                )
-            keep[i] = False
-        report.duplicates[stream.name] = int(dup.size)
-        idx = pa.array(np.flatnonzero(keep))
-        cols = {k: c.take(idx) for k, c in cols.items()}
-        t = t[keep]
-    return Stream(stream.name, t, cols)
+def _ordered(stream: Stream, report: MergeReport) -> Stream:
+    clean, rep = order_by_time(stream)
+    report.order[stream.name] = rep
+    if rep.duplicates:
+        report.duplicates[stream.name] = rep.duplicates
+    return clean
 
 
 def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
     """Merge sensor streams into one session table on the union of their times.
 
     Samples of different streams at exactly the same time share a row.  Two
-    streams may not both provide a column at the same instant.  Repeated
-    identical samples within a stream (GPS loggers repeat fixes) are folded and
-    counted in the report; conflicting repeats are an error.
+    streams may not both provide a column at the same instant.  Each stream
+    first goes through :func:`order_by_time` (sorted, same-time samples folded
+    by its documented rule, everything counted in ``report.order``).
 
     Returns
     -------
@@ -118,9 +240,11 @@ def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
     report : MergeReport
     """
     report = MergeReport()
-    clean = [_dedupe(s, report) for s in streams if len(s.t)]
-    if not clean:
-        raise InputError("no samples found in the input(s)")
+    clean = [_ordered(s, report) for s in streams if len(s.t)]
+    if not any(len(s.t) for s in clean):
+        lost = sum(r.no_time for r in report.order.values())
+        why = f" ({lost} sample(s) without a finite time)" if lost else ""
+        raise InputError(f"no samples found in the input(s){why}; expected samples with times")
     t_all = np.unique(np.concatenate([s.t for s in clean]))
     n = t_all.size
     names: list[str] = []
@@ -136,9 +260,10 @@ def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
         for s in owners:
             rows = np.searchsorted(t_all, s.t)
             if (idx_all[rows] >= 0).any():
-                clash = t_all[rows[idx_all[rows] >= 0][0]]
+                row = int(rows[idx_all[rows] >= 0][0])
                 raise InputError(
-                    f"column '{name}' comes from two inputs at t = {clash:.6f} s; rename one or shift it with --offset"
+                    f"column '{name}' comes from two inputs at row {row} (t = {t_all[row]:.6f} s); "
+                    "rename one or shift it with --offset"
                 )
             idx_all[rows] = offset + np.arange(s.t.size)
             chunks.append(s.columns[name].cast(typ))  # type: ignore[union-attr]
