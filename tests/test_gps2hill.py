@@ -101,7 +101,10 @@ def test_hill_frame_against_pymap3d_and_round_trip() -> None:
         "origin": list(ORIGIN),
         "azimuth_deg": PSI,
         "axes": "x forward, y right, z down",
+        "height_ref": "ellipsoidal",  # issue 15: the heights the frame and gnss_z rest on
+        "gnss_z_ref": "ellipsoidal",
     }
+    assert table.schema.field("gnss_z").metadata[b"height_ref"] == b"ellipsoidal"
     assert meta["hill"]["name"] == "Oberstdorf HS106" and meta["hill"]["certificate"]["w"] == 95.0
     assert meta["provenance"][-1]["tool"] == "gps2hill"
     assert meta["provenance"][-1]["params"]["hill"] == "oberstdorf_hs106"

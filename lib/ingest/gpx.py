@@ -240,7 +240,6 @@ def _times(path: Path, points: list[Any]) -> tuple[np.ndarray, float]:
     ok = np.isfinite(t)
     if timed > 1 and (t[ok] == 0.0).all():
         raise InputError(
-            f"{path}: all {timed} track points have the same time {points[i0].time}; "
-            f"expected increasing times, {hint}"
+            f"{path}: all {timed} track points have the same time {points[i0].time}; expected increasing times, {hint}"
         )
     return t, float(whole[i0]) + float(frac[i0])
