@@ -93,6 +93,7 @@ _MODE_RANK = "RFDPAEMSN"  # best first, for GNS's one character per constellatio
 #: A checksummed sentence (``$`` or ``!`` for AIS encapsulation) anywhere in a line.
 _SENTENCE = re.compile(r"[$!]([A-Z0-9]{3,})([,*][^$!*\r\n]*)?\*([0-9A-Fa-f]{2})")
 _ADDRESS = re.compile(r"[$!][A-Z0-9]{3,},")
+_BINARY = re.compile("[\x00-\x08\x0e-\x1f\x7f\ufffd]")
 _SHAPED = re.compile(r"^[$!][A-Z0-9]{3,},[^*]*\*[0-9A-Fa-f]{2}$")
 SNIFF_BYTES = 16384
 _TIME = re.compile(r"^(\d{2})(\d{2})(\d{2}(?:\.\d*)?)$")
@@ -128,12 +129,9 @@ def _checksum_ok(sentence: str) -> bool:
         return False
 
 
-def find_sentence(line: str) -> str | None:
-    """The first checksummed NMEA sentence in a line (from its ``$``/``!`` to ``*hh``), or None."""
-    for m in _SENTENCE.finditer(line):
-        if _checksum_ok(m.group(0)):
-            return m.group(0)
-    return None
+def find_sentences(line: str) -> list[str]:
+    """The checksummed NMEA sentences in a line (each from its ``$``/``!`` to ``*hh``), in order."""
+    return [m.group(0) for m in _SENTENCE.finditer(line) if _checksum_ok(m.group(0))]
 
 
 def sniff(path: Path, head: bytes) -> bool:
@@ -151,7 +149,7 @@ def sniff(path: Path, head: bytes) -> bool:
     lines = [ln for ln in lines if not ln.startswith("#")]
     if not lines:
         return False
-    valid = sum(find_sentence(ln) is not None for ln in lines)
+    valid = sum(bool(find_sentences(ln)) for ln in lines)
     if valid >= min(3, len(lines)) and valid >= 0.25 * len(lines):
         return True
     # sentence-shaped lines whose checksums all fail: still NMEA, so the reader can say what is wrong
@@ -275,6 +273,7 @@ class _Log:
     talkers: set[str] = field(default_factory=set)
     ignored: int = 0
     comments: int = 0
+    binary: int = 0
     other_types: dict[str, int] = field(default_factory=dict)
 
     def epoch_at(self, sec: int, frac: float) -> _Epoch:
@@ -311,19 +310,24 @@ class _Log:
             self.comments += 1
             return
         self.lines += 1
-        found = find_sentence(line)
-        if found is None:
+        found = find_sentences(line)
+        if not found:
             if _ADDRESS.search(line):  # looks like a sentence: its checksum is bad or missing
                 self.bad_checksum += 1
+            elif _BINARY.search(line):
+                self.binary += 1
             else:
                 self.unparsable += 1
             return
-        line = found
+        for sentence in found:  # usually one; more where a logger lost a line break
+            self._one(sentence)
+
+    def _one(self, line: str) -> None:
         head = line[1:].split(",", 1)[0].split("*", 1)[0]
         kind = head[-3:] if not head.startswith("P") else head
         if line.startswith("!") or kind not in USED:  # valid, but nothing this reader uses
             self.ignored += 1
-            key = head[:2] + "/" + kind if line.startswith("$") and not head.startswith("P") else head[:4]
+            key = "!" + head if line.startswith("!") else head[:4] if head.startswith("P") else head[:2] + "/" + kind
             self.other_types[key] = self.other_types.get(key, 0) + 1
             return
         try:
@@ -459,14 +463,15 @@ def read(path: Path, opts: Options) -> Recording:
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from exc
     log = _Log()
-    for line in raw.decode("ascii", errors="replace").replace("\x00", "\n").splitlines():
+    for line in raw.decode("ascii", errors="replace").splitlines():
         log.feed(line)
     warnings: list[str] = []
-    skipped = log.bad_checksum + log.unparsable + log.untimed
+    skipped = log.bad_checksum + log.unparsable + log.untimed + log.binary
     if not log.order:
         raise InputError(
             f"{path}: no timed GGA, GNS, RMC, GST or ZDA sentence with a valid checksum in {log.lines} line(s) "
-            f"({log.bad_checksum} with a bad or missing checksum, {log.unparsable} unparsable); expected an NMEA 0183 log"
+            f"({log.bad_checksum} with a bad or missing checksum, {log.unparsable} unparsable, {log.binary} binary); "
+            "expected an NMEA 0183 log"
         )
     if skipped:
         parts = [
@@ -474,6 +479,7 @@ def read(path: Path, opts: Options) -> Recording:
             for n, what in (
                 (log.bad_checksum, "with a bad or missing checksum"),
                 (log.unparsable, "unparsable"),
+                (log.binary, "binary (bytes that are not text)"),
                 (log.untimed, "without a UTC time"),
             )
             if n
