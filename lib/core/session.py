@@ -18,6 +18,22 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 
 
+def time_step_problem(t: np.ndarray) -> str | None:
+    """Where times ``t`` [s] first fail to increase strictly, naming the rows (index and t); None if they do."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.size < 2:
+        return None
+    step = np.diff(t)
+    bad = ~(step > 0)
+    if not bad.any():
+        return None
+    i = int(np.argmax(bad))
+    what = "repeats the time of" if step[i] == 0 else "is not later than"
+    return (
+        f"row {i + 1}: it {what} row {i} (t = {t[i]:.6f} s then {t[i + 1]:.6f} s; {int(bad.sum())} such step(s) in all)"
+    )
+
+
 def validate_time(table: pa.Table) -> np.ndarray:
     """Check column ``t``: float64, no nulls, finite, strictly increasing. Return it."""
     schema.require_columns(table, ("t",), "a session table")
@@ -30,17 +46,9 @@ def validate_time(table: pa.Table) -> np.ndarray:
     bad = ~np.isfinite(t)
     if bad.any():
         raise InputError(f"column 't' is not finite at row {int(np.argmax(bad))}, expected finite seconds")
-    if t.size > 1:
-        step = np.diff(t)
-        if (step <= 0).any():
-            i = int(np.argmax(step <= 0))
-            n_bad = int((step <= 0).sum())
-            what = "repeats the time of" if step[i] == 0 else "is earlier than"
-            raise InputError(
-                f"column 't' is not strictly increasing at row {i + 1}: it {what} row {i} "
-                f"(t = {t[i]:.6f} s then {t[i + 1]:.6f} s; {n_bad} such step(s) in all), "
-                "expected strictly increasing times"
-            )
+    problem = time_step_problem(t)
+    if problem is not None:
+        raise InputError(f"column 't' is not strictly increasing at {problem}, expected strictly increasing times")
     return t
 
 
