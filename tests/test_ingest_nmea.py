@@ -107,6 +107,9 @@ def test_gga_without_geoid_separation_and_without_date(tmp_path):
     assert col(dated, "h_msl") == pytest.approx([545.4, 545.9])
     sep = [w for w in dated.warnings if "geoid separation" in w]
     assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
+    with_n = nmea.read(p, Options(date="2026-01-05", geoid_offset=46.9))  # --geoid-offset fills h
+    assert col(with_n, "h") == pytest.approx([545.4 + 46.9, 545.9 + 46.9], abs=1e-9)
+    assert not any("geoid separation" in w for w in with_n.warnings)
     assert dated.epoch_utc == calendar.timegm((2026, 1, 5, 12, 0, 0))
     assert dated.streams[0].t.tolist() == [0.0, 1.0]
     assert not any("no date" in w for w in dated.warnings)

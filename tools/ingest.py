@@ -43,7 +43,8 @@ from sportfusion.tools._options import parse_pairs
     "--geoid-offset",
     type=float,
     default=None,
-    help="GPX: geoid separation N [m] added to <ele> (MSL) to give ellipsoidal h.",
+    help="GPX, NMEA: geoid separation N [m] added to heights above mean sea level (<ele>, GGA without "
+    "its separation) to give ellipsoidal h (gps2hill takes the same option for any format).",
 )
 @click.option(
     "--date",

@@ -41,8 +41,9 @@ Columns (units)
     ``lat``, ``lon`` [deg, signed, from ``ddmm.mmmm`` decimal minutes],
     ``h_msl`` [m] = altitude above mean sea level, ``h`` [m] = altitude +
     geoid separation (WGS84 ellipsoidal); when the separation field is empty
-    ``h`` stays null there, ``h_msl`` is kept and one warning says how many
-    fixes lack it.  ``gnss_fix``: GGA quality as written (0 invalid, 1 GPS,
+    ``h`` stays null there (``h_msl`` + ``Options.geoid_offset`` when
+    ``--geoid-offset`` is given), ``h_msl`` is kept and one warning says how
+    many fixes lack it.  ``gnss_fix``: GGA quality as written (0 invalid, 1 GPS,
     2 DGPS, 3 PPS, 4 RTK fixed, 5 RTK float, 6 dead reckoning, 7 manual,
     8 simulator); without GGA, the GNS/RMC mode indicator mapped onto the
     same codes (N 0, A 1, D 2, P 3, R 4, F 5, E 6, M 7, S 8; for GNS the best
@@ -501,10 +502,13 @@ def read(path: Path, opts: Options) -> Recording:
     t = (whole - epoch).astype(np.float64) + frac
 
     cols, no_sep = _columns(log.order)
-    if no_sep:
+    if no_sep and opts.geoid_offset is not None:
+        h, msl = np.asarray(cols["h"]), np.asarray(cols["h_msl"])
+        cols["h"] = np.where(np.isfinite(h), h, msl + float(opts.geoid_offset))
+    elif no_sep:
         warnings.append(
             f"{no_sep} fix(es) have no geoid separation in GGA/GNS: ellipsoidal h is left null there and the "
-            "altitude above mean sea level is kept in h_msl"
+            "altitude above mean sea level is kept in h_msl (give --geoid-offset M, here or to gps2hill)"
         )
     meta = {
         "talkers": sorted(log.talkers),
