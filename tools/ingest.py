@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import click
@@ -121,6 +122,10 @@ def main(
     or any CSV with a column map) and merge them into one session table on one
     clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
     are the union of all sample times, a sensor's columns null elsewhere."""
+    if geoid_offset is not None and not (math.isfinite(geoid_offset) and abs(geoid_offset) <= 150.0):
+        raise click.BadParameter(
+            f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"
+        )
     opts = Options(
         geoid_offset=geoid_offset,
         no_time=no_time,

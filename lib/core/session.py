@@ -176,7 +176,7 @@ def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
     """
     t_in = np.asarray(stream.t, dtype=np.float64)
     rep = TimeOrder(samples=int(t_in.size))
-    cols_in = {k: schema.to_arrow(k, v) for k, v in stream.columns.items()}
+    cols_in = {k: _nan_as_null(schema.to_arrow(k, v)) for k, v in stream.columns.items()}
     finite = np.isfinite(t_in)
     idx_in = np.flatnonzero(finite)
     rep.no_time = int(t_in.size - idx_in.size)
@@ -186,7 +186,8 @@ def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
     order = idx_in[np.argsort(t_ok, kind="stable")]
     rep.reordered = int((order != idx_in).sum())
     t = t_in[order]
-    cols = {k: c.take(pa.array(order)) for k, c in cols_in.items()}
+    moved = rep.reordered or rep.no_time
+    cols = {k: c.take(pa.array(order)) for k, c in cols_in.items()} if moved else cols_in
     if t.size < 2 or not (np.diff(t) == 0).any():
         return Stream(stream.name, t, cols), rep
     start = np.flatnonzero(np.r_[True, np.diff(t) != 0])  # first row of each instant
@@ -214,6 +215,13 @@ def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
     rep.merged = int(later.size - rep.duplicates - rep.conflicts)
     rep.conflict_rows = [(int(order[i]), float(t[i])) for i in later[clash][:5]]
     return Stream(stream.name, t[start], out), rep
+
+
+def _nan_as_null(arr: pa.Array) -> pa.Array:
+    """NaN in a float array -> null (the table's 'did not sample'), so equal rows compare equal."""
+    if pa.types.is_floating(arr.type) and len(arr) and pc.any(pc.is_nan(arr)).as_py():
+        return pc.if_else(pc.is_nan(arr), pa.scalar(None, arr.type), arr)
+    return arr
 
 
 @dataclass
