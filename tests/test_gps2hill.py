@@ -321,3 +321,29 @@ def test_geoid_offset_must_be_a_plausible_separation() -> None:
     for bad in ("nan", "inf", "1e300"):
         r = cli(["gps2hill", "--origin", "auto", "--geoid-offset", bad], stdin=data)
         assert r.returncode == 2 and r.stdout == b"", bad
+
+
+def test_rows_left_without_a_height_are_counted_not_silent() -> None:
+    # two inputs merged: one with ellipsoidal h, one with MSL heights only and no separation anywhere
+    data, truth = _track("ellipsoidal", n=10)
+    table, meta = _read(data)
+    h = np.array(table.column("h").to_pylist(), dtype=float)
+    h_msl = np.where(np.arange(10) >= 6, h - GEOID_N, np.nan)
+    h[6:] = np.nan
+    mixed = session_bytes(
+        {
+            "lat": truth["lat"],
+            "lon": truth["lon"],
+            "h": pa.array(h, mask=np.isnan(h)),
+            "h_msl": pa.array(h_msl, mask=np.isnan(h_msl)),
+        },
+        n=10,
+    )
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106"], stdin=mixed)
+    assert r.returncode == 0, r.stderr.decode()
+    assert "4 row(s) with lat/lon have no usable height" in r.stderr.decode()
+    assert _read(r.stdout)[0].column("gnss_x").null_count == 4
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106", "--geoid-offset", str(GEOID_N), "-q"], stdin=mixed)
+    out = _read(r.stdout)[0]
+    n_, e_, d_ = pymap3d.geodetic2ned(truth["lat"], truth["lon"], truth["h"], *ORIGIN)
+    np.testing.assert_allclose(out.column("gnss_z").to_numpy(), d_, atol=1e-6)
