@@ -120,8 +120,11 @@ def main(
     """Read raw recordings (phyphox CSV export as ZIP or folder, NMEA 0183, GPX 1.1,
     RTKLIB .pos, Xsens MT Manager text export, a bouldering-dataset trial folder,
     or any CSV with a column map) and merge them into one session table on one
-    clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
-    are the union of all sample times, a sensor's columns null elsewhere."""
+    clock: UTC where inputs have it, plus --offset. Rows are the union of all
+    sample times, a sensor's columns null elsewhere. Times out of order are
+    sorted; samples of one input at one time become one row (exact duplicates
+    dropped, the first in file order wins a conflict); all counted on stderr
+    and in the provenance (docs/recordings-gnss.md)."""
     if geoid_offset is not None and not (math.isfinite(geoid_offset) and abs(geoid_offset) <= 150.0):
         raise click.BadParameter(
             f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"

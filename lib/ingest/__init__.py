@@ -13,7 +13,10 @@ Each format lives in its own module with two functions:
 
 :func:`combine` puts several recordings on one clock (UTC where they have
 it, plus per-input offsets) and merges them with
-:func:`sportfusion.core.session.merge_streams`.
+:func:`sportfusion.core.session.merge_streams`, which applies the one
+time-ordering policy of every format to each stream
+(:func:`sportfusion.core.session.order_by_time`): readers keep absolute times
+in file order and neither sort nor refuse out-of-order times themselves.
 """
 
 from __future__ import annotations
