@@ -35,7 +35,8 @@ Time
     duplicates dropped, same-time points folded, all counted).  Points
     without a ``<time>`` get a NaN time, so the policy drops them and names
     them in a warning; when fewer than two points (or fewer than half of
-    them) have a time, or all points share one time, :class:`~sportfusion.core.errors.InputError` names the problem and
+    them) have a time, or all points share one time,
+    :class:`~sportfusion.core.errors.InputError` names the problem and
     points to ``--no-time``.  With ``Options.no_time`` the point index is the
     time (``t`` = 0, 1, 2, ... s), the recording has no absolute time and a
     warning says so.
