@@ -190,31 +190,41 @@ def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
     cols = {k: c.take(pa.array(order)) for k, c in cols_in.items()} if moved else cols_in
     if t.size < 2 or not (np.diff(t) == 0).any():
         return Stream(stream.name, t, cols), rep
-    start = np.flatnonzero(np.r_[True, np.diff(t) != 0])  # first row of each instant
-    group = np.cumsum(np.r_[True, np.diff(t) != 0]) - 1  # instant of each row
-    first = start[group]
-    later = np.flatnonzero(first != np.arange(t.size))  # rows folded into an earlier one
+    n = t.size
+    new_instant = np.r_[True, np.diff(t) != 0]
+    start = np.flatnonzero(new_instant)  # first row of each instant
+    size = np.diff(np.r_[start, n])
+    first = np.repeat(start, size)  # first row of each row's instant
+    later = np.flatnonzero(first != np.arange(n))  # rows folded into an earlier one
+    # only the rows of instants with several samples need looking at
+    multi = np.flatnonzero(size > 1)
+    rows_m = np.flatnonzero(np.repeat(size > 1, size))
+    seg_m = np.r_[0, np.cumsum(size[multi])[:-1]]  # where each such instant starts in rows_m
     exact = np.ones(later.size, dtype=bool)
     clash = np.zeros(later.size, dtype=bool)
     out: dict[str, pa.Array] = {}
-    n = t.size
     for k, c in cols.items():
-        valid = ~np.asarray(c.is_null().to_numpy(zero_copy_only=False), dtype=bool)
         a, b = c.take(pa.array(later)), c.take(pa.array(first[later]))
-        both = valid[later] & valid[first[later]]
+        va, vb = _valid(a), _valid(b)
         same = np.asarray(pc.fill_null(pc.equal(a, b), False).to_numpy(zero_copy_only=False), dtype=bool)
-        exact &= (both & same) | (~valid[later] & ~valid[first[later]])
-        clash |= both & ~same
+        exact &= (va & vb & same) | (~va & ~vb)
+        clash |= va & vb & ~same
         # per instant, the first non-null value in file order (the first sample's own where it has one)
-        cand = np.where(valid, np.arange(n), n)
-        pick = np.minimum.reduceat(cand, start)
-        pick = np.where(pick < n, pick, start)
+        cand = np.where(_valid(c.take(pa.array(rows_m))), rows_m, n)
+        first_valid = np.minimum.reduceat(cand, seg_m) if rows_m.size else np.zeros(0, dtype=np.int64)
+        pick = start.copy()
+        pick[multi] = np.where(first_valid < n, first_valid, start[multi])
         out[k] = c.take(pa.array(pick))
     rep.duplicates = int(exact.sum())
     rep.conflicts = int(clash.sum())
     rep.merged = int(later.size - rep.duplicates - rep.conflicts)
     rep.conflict_rows = [(int(order[i]), float(t[i])) for i in later[clash][:5]]
     return Stream(stream.name, t[start], out), rep
+
+
+def _valid(arr: pa.Array) -> np.ndarray:
+    """Boolean numpy mask of the non-null entries."""
+    return ~np.asarray(arr.is_null().to_numpy(zero_copy_only=False), dtype=bool)
 
 
 def _nan_as_null(arr: pa.Array) -> pa.Array:
