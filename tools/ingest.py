@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import click
 from sportfusion.core.errors import InputError
 from sportfusion.core.io import write_table
 from sportfusion.core.meta import add_provenance
-from sportfusion.ingest import FORMATS, Options, combine, read_recording
+from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_pairs
 
@@ -46,7 +47,8 @@ from sportfusion.tools._options import parse_pairs
     "--geoid-offset",
     type=float,
     default=None,
-    help="GPX: geoid separation N [m] added to <ele> (MSL) to give ellipsoidal h.",
+    help="GPX, NMEA: geoid separation N [m] added to heights above mean sea level (<ele>, GGA without "
+    "its separation) to give ellipsoidal h (gps2hill takes the same option for any format).",
 )
 @click.option(
     "--date",
@@ -132,8 +134,15 @@ def main(
     folder, NMEA 0183, GPX 1.1, RTKLIB .pos, Xsens MT Manager text export, a
     bouldering-dataset trial folder, a session Parquet, our own CSV from inspect --csv,
     or any CSV with a column map) and merge them into one session table on one
-    clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
-    are the union of all sample times, a sensor's columns null elsewhere."""
+    clock: UTC where inputs have it, plus --offset. Rows are the union of all
+    sample times, a sensor's columns null elsewhere. Times out of order are
+    sorted; samples of one input at one time become one row (exact duplicates
+    dropped, the first in file order wins a conflict); all counted on stderr
+    and in the provenance (docs/recordings-gnss.md)."""
+    if geoid_offset is not None and not (math.isfinite(geoid_offset) and abs(geoid_offset) <= 150.0):
+        raise click.BadParameter(
+            f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"
+        )
     maps, map_all = _per_input(mapping, "--map", raw)
     unit_sets, units_all = _per_input(units, "--units", raw)
     opts = Options(
@@ -168,8 +177,10 @@ def main(
         write_table(holds[0][0], add_provenance(holds[0][1], tool.name, tool.params), holds_out)
     elif holds:
         tool.info("a hold map was found; write it for pf-holds with --holds-out FILE")
-    tool.info(f"{table.num_rows} rows from {len(raw)} input(s)")
-    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw]})
+    order = time_order_totals(meta)
+    done = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in order.items() if v and k != "samples")
+    tool.info(f"{table.num_rows} rows from {len(raw)} input(s); time order: {done or 'already in order'}")
+    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw], "time_order": order})
 
 
 _PREFIX = re.compile(r"^([^=,]+):(?=[^:=,]+=)")

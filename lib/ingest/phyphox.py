@@ -89,6 +89,12 @@ RULES: tuple[tuple[re.Pattern[str], str, str], ...] = tuple(
         (r"^(?:pressure|air pressure)$", "pressure", "Pa"),
         (r"^latitude$", "lat", "deg"),
         (r"^longitude$", "lon", "deg"),
+        # phyphox's Location "Height (m)" is its buffer z, height above mean sea level on both platforms;
+        # its buffer zwgs84 is ellipsoidal.  Android (phyphox/phyphox-android,
+        # app/src/main/java/de/rwth_aachen/phyphox/GpsInput.java): z = Location.getAltitude() (WGS84
+        # ellipsoid) minus the EGM84 geoid height of its GpsGeoid, zwgs84 = getAltitude().  iOS
+        # (phyphox/phyphox-ios, ExperimentGPSInput.swift): z = CLLocation.altitude (mean sea level),
+        # zwgs84 = z + GpsGeoid height.  So Height -> h_msl, Height WGS84 -> h.
         (r"^(?:altitude|height) ?\(?(?:wgs ?84|ellipsoidal)\)?$", "h", "m"),
         (r"^(?:altitude|height)$", "h_msl", "m"),
         (r"^(?:speed|velocity)$", "gnss_speed", "m/s"),
