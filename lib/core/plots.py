@@ -68,7 +68,7 @@ def events_of(table: pa.Table) -> list[tuple[float, str]]:
 
     The label is the event's name, numbered when the name occurs more than once: by the row's value in a
     column named like the event (``event == "gate"`` with a ``gate`` id column gives ``gate 7``; ``?``
-    where that value is empty), else by order of occurrence (``grip 1``, ``grip 2`` ...).
+    where that value is empty or negative, i.e. unmatched), else by order of occurrence (``grip 1``, ``grip 2`` ...).
     """
     if "event" not in table.column_names:
         return []
@@ -86,7 +86,7 @@ def events_of(table: pa.Table) -> list[tuple[float, str]]:
             seen[name] = seen.get(name, 0) + 1
             if name in table.column_names:
                 v = table.column(name)[i].as_py()
-                label = f"{name} {v:g}" if isinstance(v, int | float) and np.isfinite(v) else f"{name} ?"
+                label = f"{name} {v:g}" if isinstance(v, int | float) and np.isfinite(v) and v >= 0 else f"{name} ?"
             else:
                 label = f"{name} {seen[name]}"
         out.append((float(t[i]), label))
@@ -165,12 +165,14 @@ def place_labels(
     avoid: np.ndarray | None = None,
     colours: list[Any] | None = None,
     fontsize: float = 8.0,
+    marker_pt: float = 4.0,
 ) -> list[Any]:
     """Label points [data] so that no two labels overlap and as few ``avoid`` points [data] as can be are
     covered.
 
     Each label tries offsets around its point (eight directions, 5 to 40 pt away, a thin leader line beyond
-    the nearest ring) and keeps the first best: no overlap with a placed label or another labelled point,
+    the nearest ring) and keeps the first best: no overlap with a placed label or a labelled point's marker
+    (a square ``marker_pt`` [pt] either side),
     inside the axes, fewest covered ``avoid`` points. The figure is laid out first (one draw) and the layout
     is then kept, so the boxes checked are the boxes drawn; call it after everything else is on the figure.
     """
@@ -186,9 +188,10 @@ def place_labels(
     obst = np.empty((0, 2)) if avoid is None or len(avoid) == 0 else ax.transData.transform(np.asarray(avoid, float))
     obst = obst[np.all(np.isfinite(obst), axis=1)]
     axbox = ax.get_window_extent(renderer)
-    marks = [Bbox.from_extents(p[0] - 3 * px, p[1] - 3 * px, p[0] + 3 * px, p[1] + 3 * px) for p in pts]
+    r0 = marker_pt * px
+    marks = [Bbox.from_extents(p[0] - r0, p[1] - r0, p[0] + r0, p[1] + r0) for p in pts]
     dirs = ((1, 1), (1, -1), (-1, 1), (-1, -1), (1, 0), (-1, 0), (0, 1), (0, -1))
-    radii = (5.0, 10.0, 16.0, 24.0, 32.0, 40.0)
+    radii = tuple(marker_pt + d for d in (2.0, 7.0, 13.0, 21.0, 30.0, 40.0))
     placed: list[Bbox] = []
     out = []
     for i, text in enumerate(texts):
@@ -234,7 +237,9 @@ def place_labels(
             fontsize=fontsize,
             color=colour,
             zorder=6,
-            arrowprops=None if r <= radii[0] else {"arrowstyle": "-", "color": "0.5", "lw": 0.5, "shrinkA": 0, "shrinkB": 2},
+            arrowprops=None
+            if r <= radii[0]
+            else {"arrowstyle": "-", "color": "0.5", "lw": 0.5, "shrinkA": 0, "shrinkB": 2},
         )
         placed.append(bb)
         out.append(ann)
