@@ -383,6 +383,12 @@ def test_hill_point_labels_do_not_collide(name):
     assert [a.get_text() for a in anns] == list(_POINTS)
     boxes = [_text_box(a, renderer) for a in anns]
     assert _pairwise_disjoint(boxes) == []
+    # nor does a label cover a key point's marker (4 pt either side of the point)
+    pts = fig.axes[0].transData.transform([(hill.profile.points[n][0], -hill.profile.points[n][1]) for n in _POINTS])
+    r = 4.0 * fig.dpi / 72.0
+    for name, bb in zip(_POINTS, boxes, strict=True):
+        hit = (pts[:, 0] + r > bb.x0) & (pts[:, 0] - r < bb.x1) & (pts[:, 1] + r > bb.y0) & (pts[:, 1] - r < bb.y1)
+        assert not hit.any(), (name, [p for p, h in zip(_POINTS, hit, strict=True) if h])
     axbox = fig.axes[0].get_window_extent(renderer)
     assert all(axbox.x0 <= b.x0 and b.x1 <= axbox.x1 and axbox.y0 <= b.y0 and b.y1 <= axbox.y1 for b in boxes)
 
