@@ -173,15 +173,15 @@ def place_labels(
     Each label tries offsets around its point (eight directions, 5 to 40 pt away, a thin leader line beyond
     the nearest ring) and keeps the first best: no overlap with a placed label or a labelled point's marker
     (a square ``marker_pt`` [pt] either side),
-    inside the axes, fewest covered ``avoid`` points. The figure is laid out first (one draw) and the layout
-    is then kept, so the boxes checked are the boxes drawn; call it after everything else is on the figure.
+    inside the axes, fewest covered ``avoid`` points. The figure is laid out first (one draw); labels kept
+    inside the axes do not change that layout, so the boxes checked are the boxes drawn. Call it after
+    everything else is on the figure.
     """
     from matplotlib.text import Text
     from matplotlib.transforms import Bbox, IdentityTransform
 
     fig = ax.figure
-    fig.canvas.draw()
-    fig.set_layout_engine("none")
+    fig.canvas.draw()  # lays the figure out: labels inside the axes leave that layout as it is
     renderer = fig.canvas.get_renderer()
     px = fig.dpi / 72.0
     pts = ax.transData.transform(np.asarray(xy, float).reshape(-1, 2))
@@ -307,7 +307,8 @@ def series_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width:
         _mark_events(ax, events, label=k == 0)
     axes[-1].set_xlabel("t [s]")
     frame = (meta.get("frame") or {}).get("name", "local")
-    fig.suptitle(title or f"estimates against time ({frame} frame; dashed lines: events; bands: 1-sigma)")
+    what = "; dashed lines: events" if events else ""
+    fig.suptitle(title or f"estimates against time ({frame} frame{what}; bands: 1-sigma)")
     return fig
 
 
@@ -383,5 +384,6 @@ def errors_figure(table: pa.Table, truth: pa.Table, title: str = "", width: floa
     for k, ax in enumerate(axes):
         _mark_events(ax, events, label=k == 0)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(title or "estimate minus truth (bands: estimated 1-sigma; dashed lines: events)")
+    what = "; dashed lines: events" if events else ""
+    fig.suptitle(title or f"estimate minus truth (bands: estimated 1-sigma{what})")
     return fig

@@ -291,5 +291,6 @@ def mag_figure(table: pa.Table, title: str = "", width: float = 12.0) -> Figure:
     for k, ax in enumerate(axes):
         _mark_events(ax, events, label=k == 0)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(title or "magnetometer: measured vs estimated (body frame; dashed lines: events)")
+    what = "; dashed lines: events" if events else ""
+    fig.suptitle(title or f"magnetometer: measured vs estimated (body frame{what})")
     return fig

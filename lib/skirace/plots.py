@@ -92,7 +92,7 @@ def compare_figure(
                 digits = 3 if np.nanmax(np.abs(v)) < 0.1 else 2
                 for yy, vv in zip(y[ok], v[ok], strict=True):
                     ax.annotate(
-                        f"{vv:+.{digits}f} {unit}",
+                        f"{vv:+.{digits}f} {unit}" if round(vv, digits) != 0 else f"0 {unit}",
                         (vv, yy),
                         textcoords="offset points",
                         xytext=(3 if vv >= 0 else -3, 0),
