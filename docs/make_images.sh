@@ -26,11 +26,11 @@ T=$(mktemp -d)
 "${BIN}compare-runs" -q "$T/A.parquet" --run "$T/B.parquet" --label A --label B --profile "$T/prof.parquet" -o "$T/cmp.parquet"
 "${BIN}plot" compare "$T/cmp.parquet" --profile "$T/prof.parquet" -o "$O/compare.png" "${P[@]}"
 rm -rf "$T"
-# a 64-colour palette keeps each image at a few tens of KB (Pillow comes with matplotlib)
+# a 256-colour palette keeps each image at a few tens of KB (Pillow comes with matplotlib)
 "${BIN}python" -c "
 import sys
 from PIL import Image
 for f in sys.argv[1:]:
-    Image.open(f).convert('RGB').quantize(64, dither=Image.Dither.NONE).save(f, optimize=True)
+    Image.open(f).convert('RGB').quantize(256, dither=Image.Dither.NONE).save(f, optimize=True)
 " "$O"/*.png
 ls -l "$O"
