@@ -281,7 +281,7 @@ def series_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width:
         rows.append(("acc. bias [m/s^2]", [f"bias_acc_{a}" for a in _AX], [None] * 3, 1.0, "ba"))
     if not rows:
         raise InputError(
-            "plot series: missing columns; needs estimates (x.., vx.., roll..) or gnss_x..; run gps2hill or a smoother first"
+            "missing columns: the series figure needs estimates (x.., vx.., roll..) or gnss_x..; run gps2hill or a smoother first"
         )
     fig = _new_figure(width, 2.2 * len(rows) + 1.0)
     axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True))

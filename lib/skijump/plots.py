@@ -234,7 +234,7 @@ def speed_figure(
         ax.set_ylabel("height, -z [m]")
         ax.set_aspect("equal", adjustable="datalim" if k == 0 else "box")
         ax.grid(True, lw=0.4, alpha=0.6)
-    axes[0].set_title(title or f"trajectory coloured by speed ({frame} frame; circles: events)")
+    axes[0].set_title(title or f"trajectory coloured by speed ({frame} frame{'; circles: events' if labelled else ''})")
     if flight:
         i0, i1 = (int(np.argmin(np.abs(t - f))) for f in flight)
         axes[1].set_title(
