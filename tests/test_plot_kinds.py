@@ -389,6 +389,9 @@ def test_hill_point_labels_do_not_collide(name):
     for name, bb in zip(_POINTS, boxes, strict=True):
         hit = (pts[:, 0] + r > bb.x0) & (pts[:, 0] - r < bb.x1) & (pts[:, 1] + r > bb.y0) & (pts[:, 1] - r < bb.y1)
         assert not hit.any(), (name, [p for p, h in zip(_POINTS, hit, strict=True) if h])
+        # and each label is nearer its own point than any other key point (no "T" read as F's label)
+        centre = np.array([(bb.x0 + bb.x1) / 2, (bb.y0 + bb.y1) / 2])
+        assert _POINTS[int(np.argmin(np.hypot(*(pts - centre).T)))] == name
     axbox = fig.axes[0].get_window_extent(renderer)
     assert all(axbox.x0 <= b.x0 and b.x1 <= axbox.x1 and axbox.y0 <= b.y0 and b.y1 <= axbox.y1 for b in boxes)
 

@@ -172,8 +172,8 @@ def place_labels(
 
     Each label tries offsets around its point (eight directions, 5 to 40 pt away, a thin leader line beyond
     the nearest ring) and keeps the first best: no overlap with a placed label or a labelled point's marker
-    (a square ``marker_pt`` [pt] either side),
-    inside the axes, fewest covered ``avoid`` points. The figure is laid out first (one draw); labels kept
+    (a square ``marker_pt`` [pt] either side), inside the axes, nearer its own point than any other
+    labelled point, fewest covered ``avoid`` points. The figure is laid out first (one draw); labels kept
     inside the axes do not change that layout, so the boxes checked are the boxes drawn. Call it after
     everything else is on the figure.
     """
@@ -205,7 +205,8 @@ def place_labels(
                 probe = Text(x0, y0, text, fontsize=fontsize, ha=ha, va=va, transform=IdentityTransform())
                 probe.set_figure(fig)
                 bb = probe.get_window_extent(renderer)
-                hard = sum(bb.overlaps(b) for b in placed) + sum(bb.overlaps(m) for m in marks)
+                gap = bb.padded(1.5 * px)  # neighbouring labels keep a gap, so "E2" "T" never read "E2T"
+                hard = sum(gap.overlaps(b) for b in placed) + sum(bb.overlaps(m) for m in marks)
                 outside = not (bb.x0 >= axbox.x0 and bb.x1 <= axbox.x1 and bb.y0 >= axbox.y0 and bb.y1 <= axbox.y1)
                 inside = (
                     int(
@@ -219,7 +220,11 @@ def place_labels(
                     if obst.size
                     else 0
                 )
-                score = 1000.0 * hard + 500.0 * outside + inside + 0.01 * r + 0.001 * k
+                # a label nearer another labelled point than its own would be read as that point's
+                centre = np.array([(bb.x0 + bb.x1) / 2, (bb.y0 + bb.y1) / 2])
+                dist = np.hypot(*(pts - centre).T)
+                ambiguous = len(pts) > 1 and float(np.min(np.delete(dist, i))) < dist[i]
+                score = 1000.0 * hard + 500.0 * outside + 200.0 * ambiguous + inside + 0.01 * r + 0.001 * k
                 if best is None or score < best[0]:
                     best = (score, off, ha, va, r, bb)
             if best is not None and best[0] < 1.0:
