@@ -205,6 +205,8 @@ def speed_figure(
     speed = np.linalg.norm(v, axis=1)
     ok = np.isfinite(x) & np.isfinite(z) & np.isfinite(speed)
     flight = _flight(table)
+    if flight is not None and not (ok & (t >= flight[0]) & (t <= flight[1])).any():
+        flight = None  # no estimate in the air to zoom on
     fig = _new_figure(width, height if flight else height * 0.6)
     axes = list(fig.subplots(2, 1, height_ratios=[1, 1.1])) if flight else [fig.add_subplot()]
     norm = Normalize(float(np.nanmin(speed[ok])), float(np.nanmax(speed[ok]))) if ok.any() else None
