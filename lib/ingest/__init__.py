@@ -33,7 +33,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
-FORMATS = ("session", "bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "nmea", "gpx", "csvmap")
+FORMATS = ("session", "bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "fit", "tcx", "nmea", "gpx", "csvmap")
 
 
 @dataclass
@@ -117,8 +117,8 @@ def detect_format(path: Path) -> str:
         if _module(fmt).sniff(path, head):
             return fmt
     raise InputError(
-        f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
-        "Xsens export, a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
+        f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, FIT, TCX, "
+        "RTKLIB .pos, Xsens export, a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
     )
 
 
