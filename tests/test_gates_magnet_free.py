@@ -100,3 +100,12 @@ def test_magnets_still_found_through_a_miscalibrated_sensor(runs):
         near = int((c["distance"] < 0.8).sum())
         assert found >= near - 1
         assert len(det.crossings) - found <= 1
+
+
+def test_calibrated_sensor_detections_unchanged(runs):
+    sim, _ = runs[1]
+    new = detect_gate_table(sim.session)
+    old = detect_gate_table(sim.session, FIXED_ONLY)
+    assert new.spread < GateParams().calibrate_spread  # the simulator's sensor is calibrated: no correction
+    assert [c.t for c in new.crossings] == [c.t for c in old.crossings]
+    np.testing.assert_allclose([c.b_peak for c in new.crossings], [c.b_peak for c in old.crossings])

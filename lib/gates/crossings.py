@@ -5,7 +5,8 @@
   and on a real trial without any magnet that alone passed the fixed
   threshold.  ``|B|`` is divided by the norm the sensor shows in the same
   direction, fitted robustly to the whole recording
-  (:func:`~sportfusion.gates.magnet.self_calibrated_norm`).
+  (:func:`~sportfusion.gates.magnet.self_calibrated_norm`), when that norm
+  spreads by ``calibrate_spread`` (1 %) or more.
 * The field intensity is then normalised by its background (a moving median
   over ``background`` seconds), so ``b = 1`` far from any magnet (the paper
   calibrates the magnetometer to ``||B|| = 1`` away from the magnets).
@@ -70,7 +71,12 @@ class GateParams:
     max_width : float
         Largest width of a crossing's bump at half its prominence [s].
     self_calibrate : bool
-        Divide ``|B|`` by its orientation-dependent norm fitted to the recording first.
+        Divide ``|B|`` by its orientation-dependent norm fitted to the recording first, when that norm
+        spreads by at least ``calibrate_spread``.
+    calibrate_spread : float
+        Relative 1-sigma of the orientation-dependent norm from which the self-calibration is applied [1]
+        (a calibrated sensor shows ~0.003; the correction is skipped there, where it would only add its
+        own small errors to the peak heights).
     """
 
     threshold: float = 0.06
@@ -80,6 +86,7 @@ class GateParams:
     noise_k: float = 6.0
     max_width: float = 0.5
     self_calibrate: bool = True
+    calibrate_spread: float = 0.01
 
 
 @dataclass
@@ -204,10 +211,11 @@ def detect_gates(
     if t_mag.size < 5:
         return det
     rate = 1.0 / float(np.median(np.diff(t_mag)))
+    bn = np.linalg.norm(mag, axis=1)
     if p.self_calibrate:
-        bn, det.spread = self_calibrated_norm(mag)
-    else:
-        bn = np.linalg.norm(mag, axis=1)
+        cal_norm, det.spread = self_calibrated_norm(mag)
+        if det.spread >= p.calibrate_spread:
+            bn = cal_norm
     b = _over_background(bn, rate, p.background)
     from scipy.signal import find_peaks
 
