@@ -325,3 +325,23 @@ def test_tcx_broken_xml_exits_1(tmp_path):
     r = run_cli(["ingest", str(p)])
     assert r.returncode == 1 and r.stdout == b""
     assert r.stderr.decode().startswith("Error: ingest:") and len(r.stderr.decode().strip().splitlines()) == 1
+
+
+def test_fit_device_clock_drift_follows_several_correlations(tmp_path):
+    p = tmp_path / "cam.fit"
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    enc.on_mesg(MN["RECORD"], {"timestamp": T0, "position_lat": semi(47.0), "position_long": semi(11.0)})
+    # system 1000 s = T0; system 2000 s = T0 + 1000.1 s (the device clock loses 0.1 s in 1000 s)
+    enc.on_mesg(MN["TIMESTAMP_CORRELATION"], {"timestamp": T0, "system_timestamp": 1000})
+    enc.on_mesg(
+        MN["TIMESTAMP_CORRELATION"],
+        {"timestamp": T0 + dt.timedelta(seconds=1000), "fractional_timestamp": 0.1, "system_timestamp": 2000},
+    )
+    mag = {"calibrated_mag_x": [0.2], "calibrated_mag_y": [0.0], "calibrated_mag_z": [0.4]}
+    for sys_t in (1500, 2500):
+        enc.on_mesg(MN["MAGNETOMETER_DATA"], {"timestamp": sys_t, "sample_time_offset": [0], **mag})
+    p.write_bytes(enc.close())
+    rec = read_recording(p)
+    m = stream(rec, "magnetometer")
+    np.testing.assert_allclose(m.t, [500.05, 1500.1], atol=1e-6)  # interpolated inside, constant outside

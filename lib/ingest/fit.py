@@ -18,7 +18,8 @@ Time
     on, FIT protocol section "Date Time"); such stamps are moved onto UTC
     with the file's ``timestamp_correlation`` message (UTC = system time +
     ``timestamp + fractional_timestamp - system_timestamp -
-    fractional_system_timestamp``).  Without a correlation the recording
+    fractional_system_timestamp``; with several, that offset is interpolated
+    linearly in system time, following the device clock's drift).  Without a correlation the recording
     keeps the device clock (no absolute time) and a warning says so.
     ``t`` counts from the first UTC second of the file.
 
@@ -46,7 +47,9 @@ Columns (units)
 
 Errors
     A truncated file, a bad CRC or a bad header raise
-    :class:`~sportfusion.core.errors.InputError` with one line.
+    :class:`~sportfusion.core.errors.InputError` with one line.  Quirks the
+    decoder can step over (an invalid field size in a definition message, a
+    developer field without its description) are counted in one warning.
 """
 
 from __future__ import annotations
@@ -83,26 +86,39 @@ def sniff(path: Path, head: bytes) -> bool:
     return len(head) >= 12 and head[8:12] == b".FIT" and head[0] in (12, 14)
 
 
-def _messages(path: Path) -> list[tuple[str, dict[str, Any]]]:
-    """Every data message as (name, {field: value}) with date_time kept as integers."""
+def _messages(path: Path) -> tuple[list[tuple[str, dict[str, Any]]], list[str]]:
+    """Every data message as (name, {field: value}) with date_time kept as integers, and decoder quirks.
+
+    CRC mismatches and a file cut short raise; recoverable quirks of real
+    files (an invalid field size in a definition, a developer field without
+    its description) are tolerated by the decoder and returned as one note.
+    """
+    import warnings as pywarnings
+
     import fitdecode  # imported here: only FIT inputs pay for it
 
     out: list[tuple[str, dict[str, Any]]] = []
+    notes: list[str] = []
     try:
-        with fitdecode.FitReader(
-            str(path),
-            processor=fitdecode.DataProcessorBase(),
-            check_crc=fitdecode.CrcCheck.RAISE,
-            error_handling=fitdecode.ErrorHandling.RAISE,
-        ) as fit:
-            for frame in fit:
-                if frame.frame_type != fitdecode.FIT_FRAME_DATA:
-                    continue
-                fields = {}
-                for f in frame.fields:
-                    if f.value is not None and f.name not in fields:
-                        fields[f.name] = f.value
-                out.append((frame.name, fields))
+        with pywarnings.catch_warnings(record=True) as caught:
+            pywarnings.simplefilter("always")
+            with fitdecode.FitReader(
+                str(path),
+                processor=fitdecode.DataProcessorBase(),
+                check_crc=fitdecode.CrcCheck.RAISE,
+                error_handling=fitdecode.ErrorHandling.WARN,
+            ) as fit:
+                for frame in fit:
+                    if frame.frame_type != fitdecode.FIT_FRAME_DATA:
+                        continue
+                    fields = {}
+                    for f in frame.fields:
+                        if f.value is not None and f.name not in fields:
+                            fields[f.name] = f.value
+                    out.append((frame.name, fields))
+        if caught:
+            first = str(caught[0].message).splitlines()[0] if str(caught[0].message) else "?"
+            notes.append(f"{len(caught)} decoding quirk(s) tolerated (first: {first})")
     except fitdecode.FitEOFError as exc:
         raise InputError(f"{path}: FIT file is truncated ({_first_line(exc)}); expected a complete FIT file") from exc
     except fitdecode.FitCRCError as exc:
@@ -113,7 +129,7 @@ def _messages(path: Path) -> list[tuple[str, dict[str, Any]]]:
         raise InputError(f"{path}: FIT file is corrupt ({_first_line(exc)})") from exc
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from exc
-    return out
+    return out, notes
 
 
 def _first_line(exc: BaseException) -> str:
@@ -129,8 +145,9 @@ def _num(v: Any) -> float:
     return x if math.isfinite(x) else math.nan
 
 
-def _clock_offset(messages: list[tuple[str, dict[str, Any]]]) -> float | None:
-    """UTC minus system time [s] from the first usable ``timestamp_correlation`` message."""
+def _clock_offsets(messages: list[tuple[str, dict[str, Any]]]) -> tuple[np.ndarray, np.ndarray] | None:
+    """(system time [s], UTC minus system time [s]) of every usable ``timestamp_correlation`` message."""
+    pairs: dict[float, float] = {}
     for name, f in messages:
         if name != "timestamp_correlation":
             continue
@@ -143,8 +160,12 @@ def _clock_offset(messages: list[tuple[str, dict[str, Any]]]) -> float | None:
         sysv = sys_ts + _num(f.get("fractional_system_timestamp", 0.0) or 0.0)
         if "system_timestamp_ms" in f and "fractional_system_timestamp" not in f:
             sysv += _num(f["system_timestamp_ms"]) / 1000.0
-        return float(utc - sysv)
-    return None
+        if math.isfinite(utc) and math.isfinite(sysv):
+            pairs.setdefault(float(sysv), float(utc - sysv))
+    if not pairs:
+        return None
+    keys = np.array(sorted(pairs))
+    return keys, np.array([pairs[k] for k in keys])
 
 
 class _Clock:
@@ -154,8 +175,8 @@ class _Clock:
     resolution (float64 near 1e9 s resolves only ~0.1 us steps of sums).
     """
 
-    def __init__(self, offset: float | None, ref: int) -> None:
-        self.offset = offset
+    def __init__(self, offsets: tuple[np.ndarray, np.ndarray] | None, ref: int) -> None:
+        self.offsets = offsets
         self.ref = ref
         self.uncorrected = 0
 
@@ -164,8 +185,10 @@ class _Clock:
             return math.nan
         if stamp >= SYSTEM_TIME_MAX:
             return float(stamp - self.ref) + frac
-        if self.offset is not None:
-            return float(stamp - self.ref) + (self.offset + frac)
+        if self.offsets is not None:
+            # several correlations follow the device clock's drift (linear between them, constant outside)
+            off = float(np.interp(float(stamp) + frac, self.offsets[0], self.offsets[1]))
+            return float(stamp - self.ref) + (off + frac)
         self.uncorrected += 1
         return float(stamp) + frac
 
@@ -311,11 +334,9 @@ def _sensor(messages: list[tuple[str, dict[str, Any]]], kind: str, clock: _Clock
 
 def read(path: Path, opts: Options) -> Recording:
     """Read a FIT file's records and 3-D sensor messages (see the module docstring)."""
-    messages = _messages(path)
+    messages, warnings = _messages(path)
     ref = _first_utc(messages)
-    offset = _clock_offset(messages)
-    clock = _Clock(offset, ref if ref is not None else 0)
-    warnings: list[str] = []
+    clock = _Clock(_clock_offsets(messages), ref if ref is not None else 0)
     parts: dict[str, dict] = {}
     device_clock: list[str] = []
     rec, w = _records(messages, clock, opts)
