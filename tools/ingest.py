@@ -47,8 +47,8 @@ from sportfusion.tools._options import parse_pairs
     "--geoid-offset",
     type=float,
     default=None,
-    help="GPX, NMEA: geoid separation N [m] added to heights above mean sea level (<ele>, GGA without "
-    "its separation) to give ellipsoidal h (gps2hill takes the same option for any format).",
+    help="GPX, NMEA, FIT, TCX: geoid separation N [m] added to heights above mean sea level (<ele>, GGA "
+    "without its separation, FIT/TCX altitude) to give ellipsoidal h (gps2hill takes the same option for any format).",
 )
 @click.option(
     "--date",
@@ -131,8 +131,8 @@ def main(
     holds_out: str | None,
 ) -> None:
     """Read raw recordings (phyphox CSV export as ZIP or folder, Sensor Logger ZIP or
-    folder, NMEA 0183, GPX 1.1, RTKLIB .pos, Xsens MT Manager text export, a
-    bouldering-dataset trial folder, a session Parquet, our own CSV from inspect --csv,
+    folder, NMEA 0183, GPX 1.1, Garmin FIT and TCX, RTKLIB .pos, Xsens MT Manager text
+    export, a bouldering-dataset trial folder, a session Parquet, our own CSV from inspect --csv,
     or any CSV with a column map) and merge them into one session table on one
     clock: UTC where inputs have it, plus --offset. Rows are the union of all
     sample times, a sensor's columns null elsewhere. Times out of order are
