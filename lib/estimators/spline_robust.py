@@ -131,6 +131,7 @@ def speed_spikes(
     dist = np.linalg.norm(d, axis=1)
     dt = np.diff(t)
     sp = np.asarray(speed, float)
+    sp = np.where((sp >= 0) & (sp < 150.0), sp, np.nan)  # a wrapped or invalid value is no speed
     vmax = np.fmax(sp[1:], sp[:-1])
     sg = np.full(n, np.nan) if sigma is None else np.asarray(sigma, float).reshape(n, -1)[:, 0]
     sg = np.where(np.isfinite(sg) & (sg > 0), sg, np.nanmedian(sg) if np.isfinite(sg).any() else 3.0)
