@@ -40,7 +40,7 @@ def watch_track(seed: int, jumps: bool = True):
         for k, (dx, dy) in JUMPS:
             pos[k] += [dx, dy, 5.0]
     sigma = np.tile([3.0, 3.0, 5.0], (t.size, 1))
-    speed = np.linalg.norm(vel[:, :2], axis=1) + rng.normal(0, 0.2, t.size)
+    speed = np.abs(np.linalg.norm(vel[:, :2], axis=1) + rng.normal(0, 0.2, t.size))  # receivers report >= 0
     return t, pos, sigma, speed, vel + rng.normal(0, 0.1, vel.shape), true, float(np.max(np.linalg.norm(vel, axis=1)))
 
 
