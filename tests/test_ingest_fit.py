@@ -345,3 +345,26 @@ def test_fit_device_clock_drift_follows_several_correlations(tmp_path):
     rec = read_recording(p)
     m = stream(rec, "magnetometer")
     np.testing.assert_allclose(m.t, [500.05, 1500.1], atol=1e-6)  # interpolated inside, constant outside
+
+
+def test_fit_out_of_order_and_repeated_records_follow_the_time_policy(tmp_path):
+    p = tmp_path / "odd.fit"
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    for s, hr in ((0, 100), (2, 102), (1, 101), (2, 150)):  # a backwards second, then a repeat that disagrees
+        enc.on_mesg(
+            MN["RECORD"],
+            {
+                "timestamp": T0 + dt.timedelta(seconds=s),
+                "position_lat": semi(47.0 + s * 1e-5),
+                "position_long": semi(11.0),
+                "heart_rate": hr,
+            },
+        )
+    p.write_bytes(enc.close())
+    r = run_cli(["ingest", str(p)])
+    assert r.returncode == 0, r.stderr
+    table = sfio.table_from_bytes(r.stdout)
+    np.testing.assert_allclose(table.column("t").to_numpy(), [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(table.column("heart_rate").to_numpy(), [100, 101, 102])  # the first in file order wins
+    assert "backward" in r.stderr.decode() and "conflict" in r.stderr.decode()  # reported, not silent

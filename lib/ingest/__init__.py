@@ -43,8 +43,8 @@ class Options:
     Attributes
     ----------
     geoid_offset : float or None
-        GPX, NMEA: geoid separation N [m] added to MSL heights (``<ele>``, a GGA without its
-        separation field) to get ellipsoidal h.
+        GPX, NMEA, FIT, TCX: geoid separation N [m] added to MSL heights (``<ele>``, a GGA without its
+        separation field, FIT/TCX altitude) to get ellipsoidal h.
     no_time : bool
         GPX: accept points without usable times; ``t`` is then the point index [s].
     column_map : dict

@@ -32,8 +32,9 @@ Columns (units)
     from ``enhanced_speed``, else ``speed``; ``heart_rate`` [1/min];
     ``cadence`` [1/min] (plus ``fractional_cadence``); ``power`` [W];
     ``gnss_sigma_h`` [m] from ``gps_accuracy``; ``temperature`` [degC].
-    Records with the same time are folded into one (later non-null fields
-    win) and counted in a warning.
+    Records stay in file order; records at one time are folded by ingest's
+    one time-ordering policy (``core.session.order_by_time``: the first in
+    file order wins, later ones fill its nulls; counted).
 
     ``accelerometer_data`` / ``gyroscope_data`` / ``magnetometer_data``
     (action cameras, some watches): one sample per ``sample_time_offset``
@@ -202,8 +203,8 @@ def _first_utc(messages: list[tuple[str, dict[str, Any]]]) -> int | None:
 
 
 def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Options) -> tuple[dict, list[str]]:
-    rows: dict[float, dict[str, float]] = {}
-    folded = 0
+    times: list[float] = []
+    rows: list[dict[str, float]] = []
     for name, f in messages:
         if name != "record":
             continue
@@ -230,21 +231,16 @@ def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Op
         temp = _num(f.get("temperature"))
         if math.isfinite(temp):
             row["temperature"] = temp
-        if t in rows:
-            folded += 1
-            rows[t].update(row)
-        else:
-            rows[t] = row
-    warnings = []
-    if folded:
-        warnings.append(f"{folded} record message(s) at an already seen time folded into the earlier one")
+        times.append(t)
+        rows.append(row)
+    warnings: list[str] = []
     if not rows:
         return {}, warnings
-    ts = np.array(sorted(rows))
+    ts = np.array(times)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)
     names: list[str] = []
-    for r in rows.values():
+    for r in rows:
         names += [k for k in r if k not in names]
-    cols = {k: np.array([rows[t].get(k, math.nan) for t in ts]) for k in names}
+    cols = {k: np.array([r.get(k, math.nan) for r in rows]) for k in names}
     if "h_msl" in cols and opts.geoid_offset is not None:
         cols["h"] = cols["h_msl"] + float(opts.geoid_offset)
     return {"t": ts, **cols}, warnings
@@ -321,14 +317,8 @@ def _sensor(messages: list[tuple[str, dict[str, Any]]], kind: str, clock: _Clock
         )
     if not ts:
         return {}, warnings
-    t = np.concatenate(ts)
+    t = np.concatenate(ts)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)
     v = np.concatenate(vals)
-    order = np.argsort(t, kind="stable")
-    t, v = t[order], v[order]
-    keep = np.concatenate([[True], np.diff(t) > 0])
-    if not keep.all():
-        warnings.append(f"{kind}: {int((~keep).sum())} sample(s) at an already seen time dropped")
-    t, v = t[keep], v[keep]
     return {"t": t, **{f"{prefix}_{a}": v[:, k] for k, a in enumerate("xyz")}}, warnings
 
 
@@ -385,5 +375,4 @@ def read(path: Path, opts: Options) -> Recording:
                 if k in f:
                     meta[f"fit_{k}"] = f[k] if isinstance(f[k], (str, int, float)) else str(f[k])
             break
-    meta["height_reference"] = "msl"
     return Recording(str(path), "fit", streams, epoch, meta, warnings)

@@ -18,8 +18,9 @@ Columns (units), per Trackpoint
 
 Time
     ``Time`` is ISO 8601 (``Z`` or an offset; no zone = UTC).  Trackpoints
-    without a time are dropped and counted in a warning; points at an
-    already seen time are folded into the earlier one (later values win).
+    without a time are dropped and counted in a warning; the others stay in
+    file order (ingest's one time-ordering policy sorts them and folds
+    repeats, counted).
 """
 
 from __future__ import annotations
@@ -87,8 +88,9 @@ def read(path: Path, opts: Options) -> Recording:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
         raise InputError(f"{path}: not a readable TCX file ({exc}); expected Training Center XML") from exc
-    rows: dict[float, dict[str, float]] = {}
-    no_time = folded = 0
+    times: list[float] = []
+    rows: list[dict[str, float]] = []
+    no_time = 0
     for tp in root.iter():
         if _local(tp.tag) != "Trackpoint":
             continue
@@ -113,29 +115,24 @@ def read(path: Path, opts: Options) -> Recording:
         if t is None:
             no_time += 1
             continue
-        if t in rows:
-            folded += 1
-            rows[t].update(row)
-        else:
-            rows[t] = row
+        times.append(t)
+        rows.append(row)
     warnings = []
     if no_time:
         warnings.append(f"{no_time} Trackpoint(s) without a readable <Time> dropped")
-    if folded:
-        warnings.append(f"{folded} Trackpoint(s) at an already seen time folded into the earlier one")
     if not rows:
         raise InputError(f"{path}: no Trackpoint with a <Time>; expected a recorded TCX activity")
-    ts = np.array(sorted(rows))
+    ts = np.array(times)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)
     names: list[str] = []
-    for r in rows.values():
+    for r in rows:
         names += [k for k in r if k not in names]
-    cols: dict[str, object] = {k: np.array([rows[t].get(k, math.nan) for t in ts]) for k in names}
+    cols: dict[str, object] = {k: np.array([r.get(k, math.nan) for r in rows]) for k in names}
     if "h_msl" in cols and opts.geoid_offset is not None:
         cols["h"] = cols["h_msl"] + float(opts.geoid_offset)  # type: ignore[operator]
-    no_pos = int(sum("lat" not in r for r in rows.values()))
+    no_pos = int(sum("lat" not in r for r in rows))
     if no_pos:
         warnings.append(f"{no_pos} of {len(rows)} Trackpoint(s) have no Position: lat/lon null there")
-    epoch = float(math.floor(ts[0]))
+    epoch = float(math.floor(ts.min()))
     sport = next((a.get("Sport") for a in root.iter() if _local(a.tag) == "Activity"), None)
-    meta = {"tcx_sport": sport, "height_reference": "msl"}
+    meta = {"tcx_sport": sport}
     return Recording(str(path), "tcx", [Stream("tcx", ts - epoch, cols)], epoch, meta, warnings)
