@@ -76,7 +76,12 @@ def test_known_column_with_wrong_type_named():
 
 @pytest.mark.parametrize(
     ("t", "needle"),
-    [([0.0, 1.0, 1.0], "strictly increasing at row 2"), ([0.0, np.nan], "not finite at row 1"), ([0.0, None], "null")],
+    [
+        ([0.0, 1.0, 1.0], r"1 duplicated time\(s\): rows 1 and 2 \(t = 1.000000 s\)"),
+        ([0.0, 2.0, 1.0], "strictly increasing at row 2"),
+        ([0.0, np.nan], "not finite at row 1"),
+        ([0.0, None], "null"),
+    ],
 )
 def test_bad_time_named(t, needle):
     data = sfio.table_to_bytes(pa.table({"t": pa.array(t, pa.float64())}), sfmeta.new_meta())

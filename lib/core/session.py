@@ -31,8 +31,16 @@ def validate_time(table: pa.Table) -> np.ndarray:
         raise InputError(f"column 't' is not finite at row {int(np.argmax(bad))}, expected finite seconds")
     if t.size > 1:
         step = np.diff(t)
-        if (step <= 0).any():
-            i = int(np.argmax(step <= 0))
+        dup = np.flatnonzero(step == 0)
+        if dup.size:
+            rows = ", ".join(f"rows {i} and {i + 1} (t = {t[i]:.6f} s)" for i in dup[:3].tolist())
+            more = f" and {dup.size - 3} more" if dup.size > 3 else ""
+            raise InputError(
+                f"column 't' has {dup.size} duplicated time(s): {rows}{more}; "
+                "expected strictly increasing times (one row per instant)"
+            )
+        if (step < 0).any():
+            i = int(np.argmax(step < 0))
             raise InputError(
                 f"column 't' is not strictly increasing at row {i + 1} "
                 f"({t[i]:.6f} s then {t[i + 1]:.6f} s), expected strictly increasing times"
