@@ -85,7 +85,7 @@ def _skijump_run(hill, sim, table) -> dict:
     if not summary["jumps"]:
         raise _Refused(f"detect-events: {msg}")
     est, meta, msg = rts_smooth_table(ev, sim.session_meta, hill)
-    notes += [m for m in meta.get("warnings", [])]
+    notes += list(meta["rts"].get("warnings", []))
     az = meta["frame"]["azimuth_deg"]
     err = errors(est, sim.truth, az)[2]
     t = floats(est, "t")

@@ -235,5 +235,7 @@ def main(tool: Tool, kind: str, **options: Any) -> None:
     the sign of the angular rate about the trunk's long axis (-z: gyr_z > 0 -> R)."""
     table, meta = tool.read()
     table, meta, message = RUNNERS[kind](table, meta, options)
+    for w in ((meta.get("events") or [{}])[-1] or {}).get("warnings", []):
+        tool.warn(w)
     tool.info(message)
     tool.write(table, meta)

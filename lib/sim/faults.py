@@ -96,9 +96,9 @@ def saturate_imu(
     acc_range: float = ACC_RANGE,
     gyr_range: float = GYR_RANGE,
     burst_acc: float = 30.0 * 9.80665,
-    burst_gyr: float = math.radians(3000.0),
+    burst_gyr: float = math.radians(4000.0),
     burst_duration: float = 0.05,
-    burst_freq: float = 80.0,
+    burst_freq: float = 30.0,
     seed: int = 0,
 ) -> pa.Table:
     """Impact bursts added to the IMU at ``burst_times`` [s], then every IMU sample clipped to its range.
@@ -116,7 +116,8 @@ def saturate_imu(
     burst_duration : float
         Decay time constant of a burst [s] (it lasts about 3 of them).
     burst_freq : float
-        Oscillation frequency of a burst [Hz] (zero mean: a vibration, not a motion).
+        Oscillation frequency of a burst [Hz]; the sampled burst is made zero-sum (a
+        vibration: no net rotation or change of speed), so that any bias comes from the clipping.
     seed : int
         Random generator seed (burst directions and phases).
     """
@@ -132,7 +133,11 @@ def saturate_imu(
                 on = (tau >= 0) & (tau < 4 * burst_duration)
                 phase = rng.uniform(0, 2 * np.pi)
                 a = amp * rng.uniform(0.5, 1.0) * rng.choice((-1.0, 1.0))
-                v[on] += a * np.exp(-tau[on] / burst_duration) * np.sin(2 * np.pi * burst_freq * tau[on] + phase)
+                env = np.exp(-tau[on] / burst_duration)
+                b = a * env * np.sin(2 * np.pi * burst_freq * tau[on] + phase)
+                if env.size:
+                    b -= env * (b.sum() / env.sum())  # sampled sum zero: a vibration, no net rotation or speed
+                v[on] += b
             table = _replace(table, name, np.clip(v, -rng_max, rng_max))
     return table
 

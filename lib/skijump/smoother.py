@@ -46,6 +46,7 @@ from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
+from sportfusion.skijump.saturation import clipped_message, step_noise
 from sportfusion.skijump.smoother_inputs import (
     SkiJumpInputs,
     SmootherConfig,
@@ -96,7 +97,7 @@ def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, 
 def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None):
     """propagate/measure for :func:`ekf_rts` (plain numpy, the reference path)."""
     mno = m_no(math.radians(inp.azimuth_deg))
-    qd = np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2
+    qd = step_noise(inp, cfg)
     dt = np.diff(inp.t)
     R_pos = np.diag(np.asarray(cfg.r_gnss_pos) ** 2)
     R_vel = np.diag(np.asarray(cfg.r_gnss_vel) ** 2)
@@ -115,7 +116,7 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
         u0, u1 = inp.u[k], inp.u[k + 1]
         xn = mdl.rk4_aug(x, u0, u1, dt[k], inp.g0, mno)
         A = mdl.jac_a(x, u0, inp.g0, mno)
-        Phi, Qd = mdl.discrete(A, mdl.jac_f(x), qd, dt[k])
+        Phi, Qd = mdl.discrete(A, mdl.jac_f(x), qd[k], dt[k])
         return xn, Phi, Qd
 
     def measure(k: int, x: np.ndarray) -> list[Measurement]:
@@ -184,7 +185,7 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
             float(seg.g0),
             m_no(math.radians(seg.azimuth_deg)),
             seg.m_o,
-            np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+            step_noise(seg, cfg),
             np.asarray(cfg.r_gnss_pos, float) ** 2,
             np.asarray(cfg.r_gnss_vel, float) ** 2,
             float(cfg.r_mag**2),
@@ -466,6 +467,8 @@ def rts_smooth_table(
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
+    warn = clipped_message(inp)
+    new_meta["rts"]["warnings"] = [warn] if warn else []
     msg = (
         f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
         f"hill constraints {'on' if cfg.hill_constraints else 'off'}"

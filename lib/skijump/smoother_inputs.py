@@ -34,6 +34,7 @@ from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
 from sportfusion.skijump.events import gnss_speed
 from sportfusion.skijump.hillfile import Hill
+from sportfusion.skijump.saturation import clipped_steps
 
 IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z")
 
@@ -78,6 +79,12 @@ class SmootherConfig:
     hill_constraints: bool = True
     use_gnss_vel: bool = True
     use_mag: bool = True
+    # saturated IMU samples (sportfusion.skijump.saturation): ranges (0: found from the data), inflated noise
+    gyr_range: float = 0.0
+    acc_range: float = 0.0
+    q_gyr_clipped: float = 3.0
+    q_acc_clipped: float = 50.0
+    clip_margin: float = 0.02
     # windows
     la_delay: float = 0.0
     la_ramp: float = 0.2
@@ -182,6 +189,7 @@ class SkiJumpInputs:
     jumps: list[tuple[float, float]]  # (takeoff, touchdown) [s]
     inrun: np.ndarray  # (n,) bool: c_V,IR and c_H,IR active
     landing: np.ndarray  # (n,) weight 0..1 of c_V,LA
+    clipped: np.ndarray | None = None  # (n, 6) bool: gyro and accelerometer axes clipped (sensor range)
 
 
 def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
@@ -391,6 +399,7 @@ def session_inputs(
         jumps=jumps,
         inrun=inrun,
         landing=landing,
+        clipped=clipped_steps(t, u, cfg),
     )
     return inp, frame
 
@@ -430,4 +439,5 @@ def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
         jumps=inp.jumps,
         inrun=inp.inrun[sl],
         landing=inp.landing[sl],
+        clipped=None if inp.clipped is None else inp.clipped[sl],
     )
