@@ -19,6 +19,8 @@ from sportfusion.climbing.holds import HoldMap
 from sportfusion.climbing.particles import PFParams, PFResult, run_particle_filter
 from sportfusion.climbing.transition import TransitionParams, TransitionResult, estimate_transitions
 from sportfusion.core import schema
+from sportfusion.core.magdisturb import describe as describe_mag
+from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.errors import InputError
 
 IMU = tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz")
@@ -141,6 +143,20 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     ):
         warnings.append("the session's frame differs from the hold map's; x y z are in the hold map's frame")
 
+    # magnetic disturbances (core.magdisturb): disturbed samples are skipped by the orientation filter
+    f_ref = np.asarray(holds.magnetic_field, dtype=float)
+    up = np.asarray(holds.up, dtype=float)
+    dip = float(np.degrees(np.arccos(np.clip(-f_ref @ up / (np.linalg.norm(f_ref) * np.linalg.norm(up)), -1, 1))))
+    dist = mag_disturbed(t, mag, None, acc[rows], dip, float(holds.gravity), gyr[rows])
+    if dist.any():
+        mag = mag.copy()
+        mag[dist] = np.nan
+        warnings.append(describe_mag(int(dist.sum()), t, dist) + ": those samples are skipped")
+    if sat.any():
+        warnings.append(
+            f"IMU saturated (clipped at the sensor range) in {int(sat.sum())} sample(s): "
+            "their transitions get inflated noise"
+        )
     tr = estimate_transitions(
         t, acc[rows], gyr[rows], mag, grip, holds.magnetic_field, -holds.gravity * holds.up, sat, o.transition
     )
