@@ -19,9 +19,9 @@ from sportfusion.climbing.holds import HoldMap
 from sportfusion.climbing.particles import PFParams, PFResult, run_particle_filter
 from sportfusion.climbing.transition import TransitionParams, TransitionResult, estimate_transitions
 from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 from sportfusion.core.magdisturb import describe as describe_mag
 from sportfusion.core.magdisturb import mag_disturbed
-from sportfusion.core.errors import InputError
 
 IMU = tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz")
 
