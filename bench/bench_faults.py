@@ -179,7 +179,7 @@ def _gates_run(_, sim, table) -> dict:
     tab = with_columns(table, gate_columns(table, det))
     est, meta, msg = gate_anchor_table(tab, sim.meta, sim.survey, sim.survey_meta)
     _, _, err = errors(est, sim.truth, 0.0)
-    return {"err": _rms3(err), "nan": int(_nan_rows(est).sum()), "notes": list(meta.get("warnings", []))}
+    return {"err": _rms3(err), "nan": int(_nan_rows(est).sum()), "notes": list(meta["gate_anchor"]["warnings"])}
 
 
 # ----------------------------------------------------------------------------------------- climbing
