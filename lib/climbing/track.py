@@ -43,6 +43,10 @@ class TrackOptions:
         Output the smoother (True) or the filter.
     pf, transition
         Parameters of the two stages.
+    saturation_margin : float
+        Samples within this time [s] of a saturated (clipped) sample are treated as saturated too (default 0:
+        a wider mask changed which start hold the filter settles on in clean simulated trials)
+        (the rest of the impact burst; policy in docs/faults.md).
     """
 
     route: str | None = None
@@ -51,6 +55,7 @@ class TrackOptions:
     smooth: bool = True
     pf: PFParams = field(default_factory=PFParams)
     transition: TransitionParams = field(default_factory=TransitionParams)
+    saturation_margin: float = 0.0
 
 
 @dataclass
@@ -152,6 +157,12 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
         mag = mag.copy()
         mag[dist] = np.nan
         warnings.append(describe_mag(int(dist.sum()), t, dist) + ": those samples are skipped")
+    if sat.any() and o.saturation_margin > 0:
+        # an impact that clips also disturbs the samples around it (the rest of the burst): widen the mask
+        ts = t[sat]
+        j = np.clip(np.searchsorted(ts, t), 1, ts.size)
+        m = o.saturation_margin
+        sat = (np.abs(t - ts[j - 1]) <= m) | (np.abs(t - ts[np.minimum(j, ts.size - 1)]) <= m)
     if sat.any():
         warnings.append(
             f"IMU saturated (clipped at the sensor range) in {int(sat.sum())} sample(s): "

@@ -42,5 +42,5 @@ def describe_gaps(sensor: str, t: np.ndarray, min_gap: float) -> str | None:
     return (
         f"{sensor} gaps: {len(big)} stretch(es) of {min_gap:g} s or more without samples (longest {d:.2f} s "
         f"at {a:.2f} s; {missing} sample(s) missing in all): bridged by interpolation, "
-        "errors there and until the next anchor grow"
+        "the errors there grow"
     )

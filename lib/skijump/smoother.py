@@ -40,6 +40,7 @@ import pyarrow as pa
 
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.gaps import describe_gaps
 from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
@@ -467,8 +468,8 @@ def rts_smooth_table(
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
-    warn = clipped_message(inp)
-    new_meta["rts"]["warnings"] = [warn] if warn else []
+    warn = [clipped_message(inp), describe_gaps("GNSS", inp.t[np.isfinite(inp.pos[:, 0])], 2.0)]
+    new_meta["rts"]["warnings"] = [w for w in warn if w]
     msg = (
         f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
         f"hill constraints {'on' if cfg.hill_constraints else 'off'}"
