@@ -54,8 +54,8 @@ def clipped_steps(t: np.ndarray, u: np.ndarray, cfg: Any) -> np.ndarray:
         near = np.zeros(t.size, bool)
         lo = np.clip(j - 1, 0, tc.size - 1)
         hi = np.clip(j, 0, tc.size - 1)
-        near |= np.abs(t - tc[lo]) <= cfg.clip_margin
-        near |= np.abs(t - tc[hi]) <= cfg.clip_margin
+        near |= np.abs(t - tc[lo]) <= cfg.clip_margin + 1e-9
+        near |= np.abs(t - tc[hi]) <= cfg.clip_margin + 1e-9
         out[:, c] = near
     return out
 
