@@ -23,6 +23,7 @@ Policy:
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -80,3 +81,34 @@ def clipped_message(inp: Any) -> str | None:
         f"IMU saturated (clipped at the sensor range): {g} gyroscope and {a} accelerometer step(s) "
         "integrated with inflated input noise"
     )
+
+
+def mag_innovation_outliers(
+    resid: np.ndarray | None, t: np.ndarray, r_mag: float, window: float = 1.0, factor: float = 1.6
+) -> np.ndarray:
+    """(n,) True on the magnetometer steps of stretches whose innovations are too large (a disturbance).
+
+    The running RMS of the magnetometer innovation norm over ``window`` [s] is compared with
+    ``factor * sqrt(3) * r_mag`` (three axes of 1-sigma ``r_mag`` [uT]; on clean simulated jumps
+    the running RMS stays below 1.15 times that size).  Where it is larger, the magnetometer is taken
+    as disturbed: a disturbance that keeps the field's strength (so that
+    :func:`sportfusion.core.magdisturb.mag_disturbed` does not see it) still turns the field.
+    """
+    n = t.size
+    out = np.zeros(n, dtype=bool)
+    if resid is None or n < 3:
+        return out
+    e = np.linalg.norm(resid, axis=1)
+    ok = np.isfinite(e)
+    if ok.sum() < 10:
+        return out
+    k = max(int(round(window / float(np.median(np.diff(t))))), 3)
+    box = np.ones(k)
+    s2 = np.convolve(np.where(ok, e**2, 0.0), box, "same")
+    cnt = np.convolve(ok.astype(float), box, "same")
+    rms = np.sqrt(s2 / np.maximum(cnt, 1.0))
+    bad = (rms > factor * math.sqrt(3.0) * r_mag) & (cnt >= k / 4)
+    if not bad.any():
+        return out
+    # the whole window around a flagged centre
+    return (np.convolve(bad.astype(float), box, "same") > 0) & ok

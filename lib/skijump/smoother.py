@@ -41,13 +41,14 @@ import pyarrow as pa
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.gaps import describe_gaps
+from sportfusion.core.magdisturb import describe as describe_mag
 from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
-from sportfusion.skijump.saturation import clipped_message, step_noise
+from sportfusion.skijump.saturation import clipped_message, mag_innovation_outliers, step_noise
 from sportfusion.skijump.smoother_inputs import (
     SkiJumpInputs,
     SmootherConfig,
@@ -442,6 +443,13 @@ def rts_smooth_table(
     if on_start is not None:
         on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
     res = smooth_inputs(inp, hill, cfg, progress, engine)
+    if cfg.use_mag:
+        # a disturbance that keeps the field's strength shows in the innovations: skip those samples, run again
+        bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
+        if bad.any():
+            inp.mag[bad] = np.nan
+            inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
+            res = smooth_inputs(inp, hill, cfg, progress, engine)
     t_rows = schema.floats(table, "t")
     cols = _estimate_columns(res.x_smooth, res.cov, inp)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
@@ -469,6 +477,9 @@ def rts_smooth_table(
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
     warn = [clipped_message(inp), describe_gaps("GNSS", inp.t[np.isfinite(inp.pos[:, 0])], 2.0)]
+    if inp.mag_disturbed is not None and inp.mag_disturbed.any():
+        md = inp.mag_disturbed
+        warn.append(describe_mag(int(md.sum()), inp.t, md) + ": those samples are skipped")
     new_meta["rts"]["warnings"] = [w for w in warn if w]
     msg = (
         f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "

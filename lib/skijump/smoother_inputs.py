@@ -29,6 +29,7 @@ from scipy.ndimage import median_filter
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.frames import Frame, gnss_local_columns
+from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.magfield import reference_field
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
@@ -190,6 +191,7 @@ class SkiJumpInputs:
     inrun: np.ndarray  # (n,) bool: c_V,IR and c_H,IR active
     landing: np.ndarray  # (n,) weight 0..1 of c_V,LA
     clipped: np.ndarray | None = None  # (n, 6) bool: gyro and accelerometer axes clipped (sensor range)
+    mag_disturbed: np.ndarray | None = None  # (n,) bool: magnetometer samples skipped as disturbed
 
 
 def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
@@ -369,6 +371,13 @@ def session_inputs(
         mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
     else:
         mag = np.full((t.size, 3), np.nan)
+    # magnetic disturbances (core.magdisturb): skipped.  The raw magnetometer is not calibrated (the smoother
+    # estimates its bias and scale), so the reference strength is the recording's median, not the model's.
+    disturbed = np.zeros(t.size, dtype=bool)
+    okm = np.isfinite(mag).all(axis=1)
+    if okm.sum() > 10:
+        disturbed[okm] = mag_disturbed(t[okm], mag[okm], None)
+        mag[disturbed] = np.nan
     jumps = session_events(table, takeoff, touchdown)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
@@ -400,6 +409,7 @@ def session_inputs(
         inrun=inrun,
         landing=landing,
         clipped=clipped_steps(t, u, cfg),
+        mag_disturbed=disturbed,
     )
     return inp, frame
 
