@@ -447,9 +447,19 @@ def rts_smooth_table(
         # a disturbance that keeps the field's strength shows in the innovations: skip those samples, run again
         bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
         if bad.any():
+            raw = inp.mag.copy()
             inp.mag[bad] = np.nan
-            inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
             res = smooth_inputs(inp, hill, cfg, progress, engine)
+            # the flagged stretch may outlast the disturbance (the filter's heading was off for a while): give back
+            # the samples that agree with the smoothed attitude, then run once more
+            idx = np.flatnonzero(bad)
+            pred = np.array([mdl.h_mag(res.x_smooth[k], inp.m_o) for k in idx])
+            agree = np.linalg.norm(raw[idx] - pred, axis=1) < 2.0 * math.sqrt(3.0) * cfg.r_mag
+            if agree.any():
+                bad[idx[agree]] = False
+                inp.mag[idx[agree]] = raw[idx[agree]]
+                res = smooth_inputs(inp, hill, cfg, progress, engine)
+            inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     t_rows = schema.floats(table, "t")
     cols = _estimate_columns(res.x_smooth, res.cov, inp)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
