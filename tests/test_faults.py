@@ -253,3 +253,26 @@ def test_rts_smooth_skips_a_disturbed_magnetometer():
     assert any("magnetometer disturbed" in w for w in out["bad"][1])
     # graceful, not clean: 0.3-0.5 m over the jump with 6 s of the in-run's heading reference gone (0.06 m clean)
     assert out["bad"][0] < 0.75
+
+
+def test_detect_events_cli_warns_about_the_outage_and_when_no_jump_is_found(jump):
+    from conftest import run_cli
+
+    from sportfusion.core import io as sfio
+
+    _, sim = jump
+    times = sim.truth_meta["skijump"]["times"]
+    bad = faults.gnss_outage(sim.session, times["takeoff"] - 4.0, 14.0)
+    res = run_cli(["detect-events", "-q", "--kind", "jump"], stdin=sfio.table_to_bytes(bad, sim.session_meta))
+    assert res.returncode == 0
+    err = res.stderr.decode().strip().splitlines()
+    assert err == [line for line in err if line.startswith("Warning: detect-events: GNSS speed missing")]
+    assert len(err) == 1
+    # standing still only: no jump, one warning line saying why
+    t = floats(sim.session, "t")
+    rest = sim.session.filter(pa.array(t < 4.0))
+    res = run_cli(["detect-events", "-q", "--kind", "jump"], stdin=sfio.table_to_bytes(rest, sim.session_meta))
+    assert res.returncode == 0
+    assert res.stderr.decode().strip().splitlines() == [
+        "Warning: detect-events: no jump found: the GNSS speed never exceeds the speed threshold"
+    ]
