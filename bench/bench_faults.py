@@ -6,7 +6,7 @@ runs on the clean and on the faulty session, and the estimate is compared with t
 
 * ski jump (``detect-events --kind jump | rts-smooth | jump-metrics``): IMU saturation (+-16 g,
   +-2000 deg/s, impact bursts at take-off, touch-down and 3 random instants), a GNSS outage of
-  5-20 s over the jump, a magnetic disturbance (+50 % of the field for 6 s); position RMS [m] and
+  5-20 s over the jump and one of 20 s from the start gate to the stop, a magnetic disturbance (+50 % of the field for 6 s); position RMS [m] and
   jump length error [m];
 * ski racing (``spline-smooth``): an 8 s GNSS outage (bridged: spline-smooth bridges up to 10 s); position RMS [m] and, inside the gap, the
   share of rows whose truth lies within +-2 std (``cov2``);
@@ -68,6 +68,7 @@ def _skijump_variants(seed: int) -> tuple:
         "clean": sim.session,
         "saturation": faults.saturate_imu(sim.session, bursts, seed=seed),
         f"gnss-out {dur:.0f}s": faults.gnss_outage(sim.session, start, dur),
+        "gnss-out-20s": faults.gnss_outage(sim.session, 3.0, 20.0),
         "mag-disturb 6s": faults.mag_disturbance(
             sim.session, float(rng.uniform(2.0, t_end - 8.0)), 6.0, 0.5, seed=seed
         ),

@@ -21,8 +21,9 @@ cannot be applied.  Such a stretch is searched as if fast when the GNSS speed
 just before or just after it exceeds ``min_speed`` (the athlete was moving
 into or out of the outage): the jump is then found from the accelerometer
 alone (the two peaks, the flight between them), and a warning names the
-outage.  A stretch whose both sides are slow (or that has no GNSS at either
-side) is not searched: nothing there says the athlete was in the in-run.
+outage.  So is an outage of 3 s or more whose both sides are slow (the whole
+in-run and jump may hide in it); a shorter one between slow stretches is not
+searched.
 
 Clipped accelerometer samples (policy, issue 17): a sensor that saturates
 (impacts easily exceed 16 g) reports plateaus at its range
@@ -295,15 +296,19 @@ def _pair_search(tw: np.ndarray, aw: np.ndarray, p: JumpParams, top: int = 12) -
     return i, j
 
 
-def _speed_gate(t: np.ndarray, speed: np.ndarray, min_speed: float) -> tuple[np.ndarray, list[tuple[float, float]]]:
-    """Samples to search (speed above ``min_speed``, or unknown next to a fast stretch) and the bridged outages."""
+def _speed_gate(
+    t: np.ndarray, speed: np.ndarray, min_speed: float, min_outage: float = 3.0
+) -> tuple[np.ndarray, list[tuple[float, float]]]:
+    """Samples to search (speed above ``min_speed``, or unknown next to a fast stretch or for at least
+    ``min_outage`` [s]: a whole jump fits in it) and the bridged outages."""
     known = np.isfinite(speed)
     fast = known & (speed > min_speed)
     bridged = []
     for i0, i1 in true_runs(~known):
         before = speed[i0 - 1] if i0 > 0 else np.nan
         after = speed[i1] if i1 < speed.size else np.nan
-        if before > min_speed or after > min_speed:
+        long_enough = t[i1 - 1] - t[i0] >= min_outage
+        if before > min_speed or after > min_speed or long_enough:
             fast[i0:i1] = True
             bridged.append((float(t[i0]), float(t[i1 - 1])))
     return fast, bridged
