@@ -17,8 +17,9 @@ runs on the clean and on the faulty session, and the estimate is compared with t
 * every sport: three duplicated time stamps (must be refused by name).
 
 A run is **ok** when its error stays within 3x the clean run's (ski jump: jump length within 3 m),
-**flagged** when it failed with one clear line or warned naming the fault, and **SILENT** (gross
-and unflagged) otherwise; the benchmark's acceptance is no SILENT run.  ``nan`` counts estimate
+**flagged** when it failed with one clear line or warned naming the fault, and **SILENT** otherwise
+(gross and not warned about, or refused with a line that does not name the fault); the benchmark's
+acceptance is no SILENT run.  ``nan`` counts estimate
 rows with NaN where the clean run has a value.
 
 Run: ``python bench/bench_faults.py [--seeds 3] [--only skijump ...] [--jobs 2]``.
@@ -90,7 +91,7 @@ def _skijump_run(hill, sim, table) -> dict:
     if not summary["jumps"]:
         raise _Refused(f"detect-events: {msg}")
     est, meta, msg = rts_smooth_table(ev, sim.session_meta, hill)
-    notes += list(meta["rts"].get("warnings", []))
+    notes += list(meta.get("rts", {}).get("warnings", []))
     az = meta["frame"]["azimuth_deg"]
     err = errors(est, sim.truth, az)[2]
     t = floats(est, "t")
@@ -184,7 +185,11 @@ def _gates_run(_, sim, table) -> dict:
     tab = with_columns(table, gate_columns(table, det))
     est, meta, msg = gate_anchor_table(tab, sim.meta, sim.survey, sim.survey_meta)
     _, _, err = errors(est, sim.truth, 0.0)
-    return {"err": _rms3(err), "nan": int(_nan_rows(est).sum()), "notes": list(meta["gate_anchor"]["warnings"])}
+    return {
+        "err": _rms3(err),
+        "nan": int(_nan_rows(est).sum()),
+        "notes": list(meta.get("gate_anchor", {}).get("warnings", [])),
+    }
 
 
 # ----------------------------------------------------------------------------------------- climbing
@@ -270,7 +275,7 @@ FAULT_WORDS = ("satur", "clip", "gnss", "gap", "outage", "magnet", "disturb", "d
 def verdict(row: dict, clean: dict | None) -> str:
     """ok / flagged / SILENT for one faulty run against its clean run."""
     if row["status"] == "refused":
-        return "flagged"
+        return "flagged" if any(w in row["line"].lower() for w in FAULT_WORDS) else "SILENT"
     if row["status"] == "CRASH":
         return "SILENT"
     if clean is None or clean.get("status") != "ran":
