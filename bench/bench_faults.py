@@ -269,7 +269,19 @@ def one(job: tuple[str, int]) -> list[dict]:
     return rows
 
 
-FAULT_WORDS = ("satur", "clip", "gnss", "gap", "outage", "magnet", "disturb", "duplicat", "missing", "dropped")
+FAULT_WORDS = (
+    "satur",
+    "clip",
+    "gnss",
+    "gap",
+    "outage",
+    "magnet",
+    "disturb",
+    "duplicat",
+    "repeats the time",
+    "missing",
+    "dropped",
+)
 
 
 def verdict(row: dict, clean: dict | None) -> str:

@@ -90,6 +90,7 @@ for _a in ("ne", "eu", "un"):
     register(f"gnss_sd{_a}", F64, "m", f"signed square root of the {_a} position covariance (RTKLIB sd{_a})")
 register("gnss_speed", F64, "m/s", "speed over ground as reported by the receiver")
 register("gnss_course", F64, "deg", "course over ground, clockwise from true north")
+register("label", STR, "", "per-row label written by the recording app (a GPX track name: Lift, Downhill, Hold)")
 register("gnss_age", F64, "s", "age of differential corrections")
 register("gnss_ratio", F64, "1", "ambiguity ratio-test value")
 register("rtk_q", I16, "1", "RTKLIB solution quality Q (1 fix, 2 float, 3 sbas, 4 dgps, 5 single, 6 ppp, 7 dr)")

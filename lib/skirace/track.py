@@ -232,4 +232,18 @@ def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResul
         sv = floats(table, "gnss_sigma_v") if "gnss_sigma_v" in names else sh
         sigma = np.column_stack((sh, sh, sv))
     azimuth = float((meta.get("frame") or {}).get("azimuth_deg", 0.0))
-    return smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, **options)  # type: ignore[arg-type]
+    flat = not np.isfinite(pos[:, 2]).any() and (np.isfinite(pos[:, 0]) & np.isfinite(pos[:, 1])).any()
+    if not flat:
+        return smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, **options)  # type: ignore[arg-type]
+    # a 2-D track (gps2hill: no height, gnss_z null): smooth x and y on a flat z, leave every z output null
+    pos = pos.copy()
+    pos[:, 2] = np.where(np.isfinite(pos[:, 0]), 0.0, np.nan)
+    if sigma is not None:
+        sigma = sigma.copy()
+        sigma[:, 2] = np.where(np.isfinite(sigma[:, 0]), sigma[:, 0], np.nan)
+    res = smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, **options)  # type: ignore[arg-type]
+    for c in ("z", "vz", "az", "std_z"):
+        if c in res.columns:
+            res.columns[c] = np.full(len(t), np.nan)
+    res.warnings.append("a 2-D track (gnss_z null): z, vz, az left null; speed and distance are horizontal")
+    return res
