@@ -235,5 +235,10 @@ def main(tool: Tool, kind: str, **options: Any) -> None:
     the sign of the angular rate about the trunk's long axis (-z: gyr_z > 0 -> R)."""
     table, meta = tool.read()
     table, meta, message = RUNNERS[kind](table, meta, options)
+    summary = (meta.get("events") or [{}])[-1] or {}
+    for w in summary.get("warnings", []):
+        tool.warn(w)
+    if summary.get("kind") == "jump" and not summary.get("jumps"):
+        tool.warn(message)  # no take-off/touch-down: say why even under -q (rts-smooth will need them)
     tool.info(message)
     tool.write(table, meta)

@@ -17,8 +17,12 @@ data.  IMU rows between regular epochs are False.
 1-sigma (``std_x std_y std_z``) is written when the input carries position
 sigmas (``std_gnss_*``, else ``gnss_sigma_h``/``gnss_sigma_v``): the input
 sigmas propagated through the smoother (noise only) at the position epochs,
-interpolated linearly to rows between regular epochs, null inside gaps and for
-per-segment smoothing.
+interpolated linearly to rows between regular epochs; inside a gap (a GNSS
+outage) the std also holds how far the track strays from the cubic bridge, as
+measured on the session's own track
+(:mod:`sportfusion.estimators.spline_gaps`), so it grows towards the middle of
+the gap; null for per-segment smoothing.  A warning line says how many rows
+were bridged.
 
 Velocity and acceleration are the spline's first and second derivatives
 (eq 7) in the local frame; ``speed`` is ``|v|``, ``distance`` the curvilinear
@@ -37,6 +41,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.rotations import local_to_ned, ned_to_local
 from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, smoothing_spline
+from sportfusion.estimators.spline_gaps import gap_std
 from sportfusion.estimators.spline_robust import robust_weights
 
 GAP_FACTOR = 1.5  # an interval longer than this times the median epoch spacing is a data gap
@@ -194,12 +199,25 @@ def smooth_track(
     filled[rows] = in_gap[rows]
     cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
     if fit.std is not None:
+        edge = np.stack([np.interp(t[rows], tk, fit.std[:, i]) for i in range(3)], axis=1)
+        big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
+        gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
+        # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
+        resid = np.sqrt(np.mean((fit.spline.evaluate(tk)[0] - yk) ** 2, axis=0))
+        inside = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
         for i, a in enumerate("xyz"):
-            s = np.interp(t[rows], tk, fit.std[:, i])
-            s[in_gap[rows]] = np.nan
+            s = edge[:, i].copy()
+            g = in_gap[rows]
+            s[g] = inside[g, i]
             put(f"std_{a}", s)
     elif sigma is not None and segments:
         warnings.append("1-sigma is not computed with per-segment lambda")
+    if filled.any():
+        gap_len = max(b - a for a, b in zip(tk[:-1], tk[1:], strict=True) if b - a > GAP_FACTOR * step)
+        warnings.append(
+            f"{int(filled.sum())} row(s) bridge GNSS gaps (outages) of up to {gap_len:.1f} s "
+            "(spline_filled; their std grows across the gap)"
+        )
     if robust:
         gw = np.full(n, np.nan)
         gw[k] = rw
