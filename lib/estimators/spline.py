@@ -98,6 +98,10 @@ class NaturalCubicSpline:
         t, g, c = self.t, self.g, self.gamma
         tq = np.asarray(tq, dtype=float)
         n = t.size
+        if n > 1 and tq.ndim == 1 and tq.size >= _COMPILED_FROM:
+            from sportfusion.estimators._banded_kernels import spline_eval
+
+            return spline_eval(t, np.ascontiguousarray(g, float), np.ascontiguousarray(c, float), tq)
         if n == 1:
             z = np.zeros((tq.size, g.shape[1]))
             return np.broadcast_to(g[0], z.shape).copy(), z, z.copy()
@@ -130,6 +134,12 @@ class NaturalCubicSpline:
         """
         t = self.t
         xg, wg = np.polynomial.legendre.leggauss(5)
+        tq = np.asarray(tq, dtype=float)
+        if t.size > 1 and tq.ndim == 1 and max(tq.size, t.size) >= _COMPILED_FROM:
+            from sportfusion.estimators._banded_kernels import arc_length
+
+            g = np.ascontiguousarray(self.g, float)
+            return arc_length(t, g, np.ascontiguousarray(self.gamma, float), tq, xg, wg)
 
         def integral(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             mid, half = (a + b) / 2, (b - a) / 2
@@ -141,6 +151,11 @@ class NaturalCubicSpline:
         tq = np.asarray(tq, dtype=float)
         k = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, t.size - 2)
         return cum[k] + integral(t[k], tq)
+
+
+# from this many points on, evaluation and arc length run compiled (numba, loaded on first use);
+# below, numpy (no numba import for small calls)
+_COMPILED_FROM = 20_000
 
 
 @dataclass
@@ -211,6 +226,14 @@ def _line_fit(t: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), compiled: O(m), ~10 ns per row."""
+    from sportfusion.estimators._banded_kernels import ldl_inverse_bands
+
+    ab = np.ascontiguousarray(ab)
+    return ldl_inverse_bands(ab[0], ab[1], ab[2])
+
+
+def _ldl_inverse_bands_py(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Central bands of ``B^{-1}`` for a symmetric pentadiagonal ``B`` (lower storage ``ab``).
 
     LDL^T without pivoting, then the Hutchinson-de Hoog (Takahashi) recursion
@@ -253,6 +276,13 @@ def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def _qzqt_diag(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
+    """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots); compiled."""
+    from sportfusion.estimators._banded_kernels import qzqt_diag
+
+    return qzqt_diag(np.ascontiguousarray(h, float), z0, z1, z2)
+
+
+def _qzqt_diag_py(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
     """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots)."""
     n = h.size + 1
     q0, q1, q2 = _qcoef(h)
@@ -283,10 +313,17 @@ def _qzqt_diag(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) ->
 
 
 def _minv_diag(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
-    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed)."""
+    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); compiled, O(n)."""
+    from sportfusion.estimators._banded_kernels import minv_diag
+
+    return minv_diag(np.ascontiguousarray(h, float), np.ascontiguousarray(1.0 / w), float(alpha))
+
+
+def _minv_diag_py(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
+    """Reference (numpy + the Python recursion) for :func:`_minv_diag`."""
     winv = 1.0 / w
-    z = _ldl_inverse_bands(_reinsch_bands(h, winv, alpha))
-    return winv - alpha * winv**2 * _qzqt_diag(h, *z)
+    z = _ldl_inverse_bands_py(_reinsch_bands(h, winv, alpha))
+    return winv - alpha * winv**2 * _qzqt_diag_py(h, *z)
 
 
 def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tuple[float, float]:
@@ -302,7 +339,8 @@ def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tupl
     n = t.size
     g, _ = _reinsch(h, y, w, alpha)
     r = y[:, 0] - g[:, 0]
-    tr = n - alpha * float(np.sum(_qzqt_diag(h, *_ldl_inverse_bands(_reinsch_bands(h, 1.0 / w, alpha))) / w))
+    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled
+    tr = float(np.sum(w * _minv_diag(h, w, alpha)))
     return float(np.sum(w * r * r) / n / (1.0 - tr / n) ** 2), tr
 
 
