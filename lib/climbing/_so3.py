@@ -9,7 +9,6 @@ Quaternions in this package are scalar first (scipy is asked for that explicitly
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from sportfusion.core.rotations import skew as hat
 
@@ -18,12 +17,16 @@ _SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
 
 def exp(phi: np.ndarray) -> np.ndarray:
     """Rotation matrices from rotation vectors ``phi`` [rad] (..., 3) -> (..., 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
     phi = np.asarray(phi, dtype=np.float64)
     return Rotation.from_rotvec(phi.reshape(-1, 3)).as_matrix().reshape(phi.shape[:-1] + (3, 3))
 
 
 def log(r: np.ndarray) -> np.ndarray:
     """Rotation vectors [rad] of rotation matrices ``r`` (..., 3, 3) -> (..., 3)."""
+    from scipy.spatial.transform import Rotation
+
     r = np.asarray(r, dtype=np.float64)
     return Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec().reshape(r.shape[:-2] + (3,))
 
@@ -52,6 +55,8 @@ def jr_inv(phi: np.ndarray) -> np.ndarray:
 
 def quat_from_matrix(r: np.ndarray) -> np.ndarray:
     """Scalar-first unit quaternions (w >= 0) of rotation matrices (..., 3, 3) -> (..., 4)."""
+    from scipy.spatial.transform import Rotation
+
     r = np.asarray(r, dtype=np.float64)
     q = Rotation.from_matrix(r.reshape(-1, 3, 3)).as_quat(scalar_first=True)
     q *= np.where(q[:, :1] < 0, -1.0, 1.0)
@@ -60,6 +65,8 @@ def quat_from_matrix(r: np.ndarray) -> np.ndarray:
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
     """Rotation matrices of scalar-first quaternions (..., 4) -> (..., 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
     q = np.asarray(q, dtype=np.float64)
     return Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(q.shape[:-1] + (3, 3))
 

@@ -34,8 +34,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_banded, solveh_banded
-from scipy.optimize import minimize_scalar
 
 from sportfusion.core.errors import InputError
 
@@ -346,6 +344,8 @@ def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tupl
 
 def _reinsch(h: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """Knot values g and second derivatives gamma (both (n, d)) for a constant penalty."""
+    from scipy.linalg import solveh_banded
+
     n = h.size + 1
     d = y.shape[1]
     if n == 2 or not np.isfinite(alpha):
@@ -391,6 +391,8 @@ def _solve_kkt(h: np.ndarray, y: np.ndarray, w: np.ndarray, rho: np.ndarray) -> 
     ``R_rho`` weights interval k's contribution to ``integral S''^2`` by
     ``rho_k``; with a constant ``rho`` it reduces to Reinsch's system.
     """
+    from scipy.linalg import solve_banded
+
     n = h.size + 1
     N = 3 * n
     lu = 5
@@ -533,6 +535,8 @@ def gcv_lambda(t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> flo
     Searched on ``log10(alpha)`` over a coarse grid spanning the data's time
     scales, then refined by a bounded Brent search around the best grid point.
     """
+    from scipy.optimize import minimize_scalar
+
     t = np.asarray(t, float)
     y = np.asarray(y, float)
     w = np.ones_like(t) if w is None else np.asarray(w, float)

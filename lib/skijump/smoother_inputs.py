@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.ndimage import median_filter
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -247,6 +246,8 @@ def constraint_windows(
     landing : ndarray float (n,)
         Weight of ``c_V,LA`` in [0, 1] (0: inactive).
     """
+    from scipy.ndimage import median_filter
+
     inrun = np.zeros(t.size, bool)
     landing = np.zeros(t.size, float)
     # a running median over 9 GNSS epochs keeps single noisy velocities from splitting a rest

@@ -36,7 +36,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.optimize import brentq
 
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import rotations, schema
@@ -164,6 +163,8 @@ def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) ->
     area gives about the distance; the lift area is then solved within
     :data:`LIFT_RANGE`.
     """
+    from scipy.optimize import brentq
+
     n = hill.profile.cert.gates or 2
 
     def motion(g: float) -> JumpMotion:
