@@ -83,8 +83,11 @@ class SmootherConfig:
     rest_speed: float = 1.0
     max_rest: float = 60.0
     init_window: float = 0.1
+    init_rest_max: float = 5.0
+    init_rest_gyr: float = 0.15
+    init_rest_acc: float = 1.5
     max_gap: float = 1.0
-    passes: int = 5
+    passes: int = 1
     pass_tol_deg: float = 0.05
     pass_window: float = 120.0
 
