@@ -21,8 +21,10 @@ Constraint windows (eqs 32-34, 51), per jump of the session:
 
 Initial state (paper §4.1): position and NED velocity of the first GNSS fix,
 attitude by QUEST (:func:`sportfusion.estimators.quest.quest`) from the mean
-accelerometer and magnetometer samples of the first ``init_window`` seconds
-(gravity up and the reference field), parameters zero; ``P0``, ``Q``, ``R`` are
+accelerometer and magnetometer samples of the rest at the start (at least the
+first ``init_window`` seconds, extended while the sensor is still, at most
+``init_rest_max``; gravity up and the reference field), the gyro bias the mean
+rate over that rest, other parameters zero; ``P0``, ``Q``, ``R`` are
 Tables 3-5 as 1-sigma values in :class:`SmootherConfig`, all overridable from a
 TOML file (:func:`load_config`).  The reference field is the hill file's, else
 the World Magnetic Model at the take-off edge and the session's date.
@@ -81,7 +83,7 @@ def _initial_rest(inp: SkiJumpInputs, cfg: SmootherConfig) -> np.ndarray:
 
 
 def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Paper §4.1: first GNSS fix, QUEST attitude from the first samples, zero parameters; Table 3 P0."""
+    """Paper §4.1: first GNSS fix, QUEST attitude from the rest at the start, gyro bias its mean rate; Table 3 P0."""
     x0 = np.zeros(mdl.N)
     ip = int(np.flatnonzero(np.isfinite(inp.pos[:, 0]))[0])
     x0[0:3] = inp.pos[ip]
@@ -264,7 +266,10 @@ def smooth_inputs(
 
     A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
     independent segments (each initialised from its own first samples); the
-    results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
+    results are concatenated.  The initial state comes from the rest at the start
+    (:func:`initial_state`: QUEST over the whole rest, the gyro bias from its mean
+    rate), which keeps the EKF in its linear regime with one pass (the default).
+    With ``cfg.passes > 1`` the smoother is re-run from
     the smoothed initial state (mean only, same ``P0``) until the initial attitude
     changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
     re-linearises the start, where an attitude error of tens of degrees (gyro
@@ -300,7 +305,8 @@ def smooth_inputs(
 
         try:
             # re-linearisation passes over the first pass_window seconds, then the whole segment
-            win = seg if nw == seg.t.size else _slice(seg, 0, nw)
+            # (one pass: the whole segment at once, no window run first)
+            win = seg if nw == seg.t.size or cfg.passes <= 1 else _slice(seg, 0, nw)
             done, it, change = None, 0, math.inf
             for it in range(max(cfg.passes, 1)):
                 done = run(win, x0)
