@@ -274,8 +274,12 @@ def smooth_inputs(
     changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
     re-linearises the start, where an attitude error of tens of degrees (gyro
     biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
-    regime.  These passes cover the first ``cfg.pass_window`` seconds; one final
-    pass then covers the whole segment (a single pass when the window covers it).
+    regime.  These passes cover the start of the segment: ``cfg.pass_window`` seconds,
+    extended to ``cfg.pass_after_takeoff`` seconds after the segment's first take-off
+    (the in-run is what pins the heading); one final pass then covers the whole
+    segment (a single pass when the window covers it).  Re-running only this window
+    (at most 3 times by default) costs a fraction of re-running whole segments and
+    is as accurate (``bench/bench_rts_accuracy.py --init``).
     """
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
@@ -289,7 +293,13 @@ def smooth_inputs(
                 "expected GNSS during every recorded stretch"
             )
         x0, P0 = initial_state(seg, cfg)
-        nw = int(np.searchsorted(seg.t, seg.t[0] + cfg.pass_window, side="right"))
+        # the window that needs re-linearising: the start up to the in-run's end (the first take-off in
+        # the segment plus pass_after_takeoff), at least pass_window seconds
+        t_end = seg.t[0] + cfg.pass_window
+        tos = [a for a, _ in seg.jumps if seg.t[0] <= a <= seg.t[-1]]
+        if tos:
+            t_end = max(t_end, min(tos) + cfg.pass_after_takeoff)
+        nw = int(np.searchsorted(seg.t, t_end, side="right"))
         nw = max(min(nw, seg.t.size), 2)
 
         def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202

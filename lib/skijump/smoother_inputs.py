@@ -87,9 +87,10 @@ class SmootherConfig:
     init_rest_gyr: float = 0.15
     init_rest_acc: float = 1.5
     max_gap: float = 1.0
-    passes: int = 1
+    passes: int = 3
     pass_tol_deg: float = 0.05
-    pass_window: float = 120.0
+    pass_window: float = 15.0
+    pass_after_takeoff: float = 3.0
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
