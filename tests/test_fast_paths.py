@@ -90,3 +90,25 @@ def test_interp_columns_matches_interp_rows() -> None:
     for j, name in enumerate(cols):
         assert np.array_equal(np.isnan(got[name]), np.isnan(ref[:, j]))
         assert np.allclose(got[name], ref[:, j], equal_nan=True)
+
+
+@pytest.mark.parametrize("k", [2, 3])
+def test_compiled_quest_matches_numpy(k: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    from sportfusion.estimators import quest as Q
+
+    rng = np.random.default_rng(k)
+    b = rng.normal(size=(3000, k, 3))
+    r = rng.normal(size=(3000, k, 3))
+    b[5, 0] = 0.0
+    b[7, 1] = np.nan
+    w = rng.uniform(0.2, 1.0, k)
+    for ref in (r, r[0]):  # per-sample references and one shared set
+        monkeypatch.setattr(Q, "_COMPILED_FROM", 1)
+        qa, la = Q.quest(b, ref, w)
+        monkeypatch.setattr(Q, "_COMPILED_FROM", 10**12)
+        with np.errstate(invalid="ignore"):
+            qb, lb = Q.quest(b, ref, w)
+        assert np.array_equal(np.isfinite(la), np.isfinite(lb)) and np.isnan(la[[5, 7]]).all()
+        ok = np.isfinite(lb)
+        assert np.allclose(qa[ok], qb[ok], atol=1e-10)
+        assert np.allclose(la[ok], lb[ok], atol=1e-12)
