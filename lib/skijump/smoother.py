@@ -340,17 +340,23 @@ def smooth_inputs(
 
     def cov(idx: np.ndarray) -> np.ndarray:
         idx = np.asarray(idx)
-        if fast is None:
-            return np.concatenate([P[:, idx][:, :, idx] for P in covs])
-        return np.concatenate([fast.unpack_many(P, idx) for P in covs])
+        out = np.empty((inp.t.size, idx.size, idx.size))  # filled segment by segment: no list + concatenate
+        i = 0
+        for P in covs:
+            out[i : i + P.shape[0]] = P[:, idx][:, :, idx] if fast is None else fast.unpack_many(P, idx)
+            i += P.shape[0]
+        return out
 
     def var() -> np.ndarray:
         """Smoothed variances (n, 22): the covariances' diagonals, read without unpacking."""
-        if fast is None:
-            return np.concatenate([np.diagonal(P, axis1=1, axis2=2) for P in covs])
         iu = np.triu_indices(mdl.N)
         diag = np.flatnonzero(iu[0] == iu[1])  # packed (upper, row-major) positions of the diagonal
-        return np.concatenate([P[:, diag] for P in covs])
+        out = np.empty((inp.t.size, mdl.N))
+        i = 0
+        for P in covs:
+            out[i : i + P.shape[0]] = np.diagonal(P, axis1=1, axis2=2) if fast is None else P[:, diag]
+            i += P.shape[0]
+        return out
 
     names = {k: v.shape[1] for r in resids for k, v in r.items()}
     out = {k: np.full((inp.t.size, m), np.nan) for k, m in names.items()}
