@@ -37,22 +37,33 @@ COMMANDS = (
 ).split()
 
 
+# The command is started by a small launcher process: a child forked from this (large) process would
+# report this process's memory as its own peak RSS (Linux keeps the high-water mark across exec).
+LAUNCHER = """
+import os, subprocess, sys, time
+t0 = time.perf_counter()
+p = subprocess.Popen(sys.argv[2:])
+_, status, ru = os.wait4(p.pid, 0)
+with open(sys.argv[1], "w") as f:
+    f.write(f"{ru.ru_utime + ru.ru_stime} {time.perf_counter() - t0} {ru.ru_maxrss * 1024} {os.waitstatus_to_exitcode(status)}")
+"""
+
+
 def run(argv: list[str], stdin: Path | None = None, stdout: Path | None = None) -> tuple[float, float, int]:
-    """(CPU s, wall s, peak RSS bytes) of one command; raises on a non-zero exit."""
+    """(CPU s, wall s, peak RSS bytes) of one command (its own process only); raises on a non-zero exit."""
     fi = open(stdin, "rb") if stdin else subprocess.DEVNULL  # noqa: SIM115
     fo = open(stdout, "wb") if stdout else subprocess.DEVNULL  # noqa: SIM115
-    t0 = time.perf_counter()
-    p = subprocess.Popen(argv, stdin=fi, stdout=fo, stderr=subprocess.PIPE)
-    err = p.stderr.read()
-    _, status, ru = os.wait4(p.pid, 0)
-    wall = time.perf_counter() - t0
+    with tempfile.NamedTemporaryFile("r", suffix=".txt") as rep:
+        res = subprocess.run(
+            [sys.executable, "-c", LAUNCHER, rep.name, *argv], stdin=fi, stdout=fo, stderr=subprocess.PIPE
+        )
+        fields = rep.read().split()
     for f in (fi, fo):
         if f is not subprocess.DEVNULL:
             f.close()
-    code = os.waitstatus_to_exitcode(status)
-    if code != 0:
-        raise RuntimeError(f"{' '.join(argv)} exited {code}: {err.decode()[-400:]}")
-    return ru.ru_utime + ru.ru_stime, wall, ru.ru_maxrss * 1024
+    if res.returncode != 0 or len(fields) != 4 or fields[3] != "0":
+        raise RuntimeError(f"{' '.join(argv)} failed: {res.stderr.decode()[-400:]}")
+    return float(fields[0]), float(fields[1]), int(fields[2])
 
 
 def best(argv: list[str], repeat: int = 3, **kw: Path | None) -> tuple[float, float, int]:
