@@ -460,21 +460,25 @@ def _estimate_columns(
     P = cov(np.arange(3, 10))  # (n, 7, 7): v_B and q
     for k, a in enumerate("xyz"):
         cols[f"std_{a}"] = d[:, k]
-    # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
-    dm = mdl.dm_dq(q)  # (n, 4, 3, 3)
-    Jv = np.einsum("ij,nkj->nik", mno, M)  # (n,3,3)  M_NO M^T
-    Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[:, 3:6])  # (n,3,4)  M_NO dM_k^T v
-    J = np.concatenate([Jv, Jq], axis=2)
-    Cv = np.einsum("nij,njk,nlk->nil", J, P, J, optimize=True)
-    sv = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
+    # in blocks of rows: the Jacobians' temporaries stay small (memory per step, not per session)
+    sv, se = np.empty((x.shape[0], 3)), np.empty((x.shape[0], 3))
+    for r0 in range(0, x.shape[0], 8192):
+        r = slice(r0, r0 + 8192)
+        # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
+        dm = mdl.dm_dq(q[r])  # (m, 4, 3, 3)
+        Jv = np.einsum("ij,nkj->nik", mno, M[r])  # (m,3,3)  M_NO M^T
+        Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[r, 3:6])  # (m,3,4)  M_NO dM_k^T v
+        J = np.concatenate([Jv, Jq], axis=2)
+        Cv = np.einsum("nij,njk,nlk->nil", J, P[r], J, optimize=True)
+        sv[r] = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
+        # Euler angles: analytic Jacobian w.r.t. q
+        Je = euler_jacobian(q[r])
+        Ce = np.einsum("nij,njk,nlk->nil", Je, P[r, 3:7, 3:7], Je, optimize=True)
+        se[r] = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
     for k, a in enumerate("xyz"):
         cols[f"std_v{a}"] = sv[:, k]
     for k in range(4):
         cols[f"std_q{k}"] = d[:, 6 + k]
-    # Euler angles: analytic Jacobian w.r.t. q
-    Je = euler_jacobian(q)
-    Ce = np.einsum("nij,njk,nlk->nil", Je, P[:, 3:7, 3:7], Je, optimize=True)
-    se = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
     for k, a in enumerate(("roll", "pitch", "yaw")):
         cols[f"std_{a}"] = se[:, k]
     for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
