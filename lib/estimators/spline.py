@@ -503,7 +503,19 @@ def smoothing_spline(
     alphas = np.array([penalty_from_lambda(v) for v in lams])
     std = None
     if S is not None and not segments:
-        std = np.column_stack([_propagated_std(h, W[:, c], alphas[c], S[:, c]) for c in range(d)])
+        # columns with the same weights, sigmas and penalty (x and y, typically) share one computation
+        cols: list[np.ndarray] = []
+        for c in range(d):
+            same = next(
+                (
+                    j
+                    for j in range(c)
+                    if alphas[j] == alphas[c] and np.array_equal(W[:, j], W[:, c]) and np.array_equal(S[:, j], S[:, c])
+                ),
+                None,
+            )
+            cols.append(cols[same] if same is not None else _propagated_std(h, W[:, c], alphas[c], S[:, c]))
+        std = np.column_stack(cols)
     return SplineFit(NaturalCubicSpline(t, g, gam), lams, alphas, std)
 
 
