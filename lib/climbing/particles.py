@@ -153,7 +153,7 @@ class PFParams:
     ess_fraction: float = 0.5
     hold: HoldModel = HoldModel()
     smoother: str = "backward"
-    smoother_moves: int = 2
+    smoother_moves: int = 1
 
 
 @dataclass
