@@ -42,6 +42,7 @@ from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.magfield import reference_field
 from sportfusion.skijump.hillfile import Hill
+from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.skijump.sim.attitude import arm_motion, attitude, mounting
 from sportfusion.skijump.sim.contact import HillGeometry
 from sportfusion.skijump.sim.motion import JumpMotion, MotionParams, MotionTruth
@@ -59,7 +60,7 @@ class SkiJumpConfig:
     seed: int = 0
     distance: float | None = None  # wanted jump length [m]; default: drawn near the K point
     gate: int | None = None  # start gate (1 = lowest); default: chosen for the distance
-    start: str = "2026-01-05T13:00:00Z"  # UTC time of t = 0
+    start: str = DEFAULT_START  # UTC time of t = 0
     rest_before: float = 5.0  # standing at the gate [s]
     rest_after: float = 3.0  # standing after the stop [s]
     # white noise, Tables 4-5
