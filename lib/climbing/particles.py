@@ -345,20 +345,22 @@ def _backward(
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
-    sl = slice(k0, n - 1)
-    c = np.cos(psi[sl])[..., None]
     horiz = model.step - model.ustep
-    pred = pos[sl] + model.ustep[sl, None, :]  # eq 17 at zero noise: ustep + horiz cos + kstep sin
-    pred += horiz[sl, None, :] * c
-    pred += model.kstep[sl, None, :] * np.sin(psi[sl])[..., None]
-    lt = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)  # L^-T per step
-    sy = (1.0 / model.yaw_sigma[sl])[:, None, None]
-    a = np.zeros((n, m, 4))
-    b = np.zeros((n, m, 4))
-    np.matmul(pred, lt, out=a[sl, :, :3])
-    np.matmul(pos[k0 + 1 :], lt, out=b[sl, :, :3])
-    np.multiply(psi[sl, :, None], sy, out=a[sl, :, 3:])
-    np.multiply(psi[k0 + 1 :, :, None], sy, out=b[sl, :, 3:])
+    a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
+    b = np.empty((n, m, 4))
+    for c0 in range(k0, n - 1, 1024):  # in blocks of steps: the temporaries stay small
+        sl = slice(c0, min(c0 + 1024, n - 1))
+        nx = slice(c0 + 1, sl.stop + 1)
+        c = np.cos(psi[sl])[..., None]
+        pred = pos[sl] + model.ustep[sl, None, :]  # eq 17 at zero noise: ustep + horiz cos + kstep sin
+        pred += horiz[sl, None, :] * c
+        pred += model.kstep[sl, None, :] * np.sin(psi[sl])[..., None]
+        lt = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)  # L^-T per step
+        sy = (1.0 / model.yaw_sigma[sl])[:, None, None]
+        np.matmul(pred, lt, out=a[sl, :, :3])
+        np.matmul(pos[nx], lt, out=b[sl, :, :3])
+        np.multiply(psi[sl, :, None], sy, out=a[sl, :, 3:])
+        np.multiply(psi[nx, :, None], sy, out=b[sl, :, 3:])
 
     memo: list = [-1, None, None]  # the step's b_k(j): the same j for every move of a step
 
