@@ -5,7 +5,8 @@ For every seed ``simulate boulder`` generates a trial (default settings: 100 Hz,
 10-20 holds, magnetic disturbances behind the wall, slaps that clip the accelerometer,
 off-centre and wall grips, grip adjustments, a down-climb), ``detect-events --kind grips``
 finds the grips and ``pf-holds`` (the same library call, :func:`track_holds`) runs the
-transition estimator, the particle filter and the FFBSm smoother.  Errors are the 3-D
+transition estimator, the particle filter and the smoother (backward simulation,
+with the FFBSm smoother on the same filter beside it).  Errors are the 3-D
 distances to the true sensor position at every IMU sample from the first detected grip to
 the end of the trial, pooled over all trials (the paper pools its sparse optical truth).
 Transition-only integrates the transition velocities from the true position at the first
@@ -54,14 +55,18 @@ def _pipeline(seed: int, duration: float | None = None, imu_rate: float = 100.0)
     t2 = time.perf_counter()
     tr = track_holds(table, sim.meta, holds)
     t3 = time.perf_counter()
-    return sim, cols, tr, (t1 - t0, t3 - t2)
+    return sim, cols, tr, (t1 - t0, t3 - t2), (table, holds)
 
 
 def one(seed: int) -> dict:
+    from sportfusion.climbing.particles import PFParams
+    from sportfusion.climbing.track import TrackOptions, track_holds
     from sportfusion.climbing.transition import integrate
     from sportfusion.core import schema
 
-    sim, cols, tr, _ = _pipeline(seed)
+    sim, cols, tr, _, (table, holds) = _pipeline(seed)
+    # the same trial and PF seed smoothed by FFBSm (O(M^2), the paper's smoother) for the before/after
+    ref = track_holds(table, sim.meta, holds, TrackOptions(pf=PFParams(smoother="ffbsm")))
     rows = tr.rows
     t = schema.floats(sim.session, "t")[rows]
     p_true = np.column_stack([schema.floats(sim.truth, f"true_{a}") for a in "xyz"])[rows]
@@ -69,7 +74,12 @@ def one(seed: int) -> dict:
     p_tr = integrate(t, tr.transition.velocity, p_true[k0], k0)
     err = {
         name: np.linalg.norm(p - p_true, axis=1)[k0:]
-        for name, p in (("Transition-Only", p_tr), ("PF", tr.pf.pos), ("PF smoother", tr.pf.smooth_pos))
+        for name, p in (
+            ("Transition-Only", p_tr),
+            ("PF", tr.pf.pos),
+            ("PF smoother", tr.pf.smooth_pos),
+            ("FFBSm smoother", ref.pf.smooth_pos),
+        )
     }
     true_hold = np.asarray(sim.truth.column("true_hold").fill_null(-2).to_numpy(), dtype=int)[rows][k0:]
     true_grip = sim.truth.column("true_grip").to_numpy(zero_copy_only=False)[rows][k0:]
@@ -100,6 +110,14 @@ def report(rows: list[dict]) -> None:
         meds[name] = s[1]
         print(f"{name + ' (ours)':18s}" + "".join(f"{v:10.3f}" for v in s))
         print(f"{name + ' (paper)':18s}" + "".join(f"{v:10.3f}" for v in paper))
+    e = np.concatenate([r["err"]["FFBSm smoother"] for r in rows])
+    print(f"{'FFBSm smoother':18s}" + "".join(f"{v:10.3f}" for v in stats(e)) + "   (O(M^2) reference, same PF)")
+    per_trial = [(np.median(r["err"]["PF smoother"]), np.median(r["err"]["FFBSm smoother"])) for r in rows]
+    bs, ff = np.array(per_trial).T
+    print(
+        f"PF smoother = backward simulation (O(M)); per-trial medians: backward {np.median(bs):.3f} m, "
+        f"FFBSm {np.median(ff):.3f} m (median of trial medians), backward better in {int(np.sum(bs < ff))}/{len(rows)}"
+    )
     order = meds["Transition-Only"] > meds["PF"] > meds["PF smoother"]
     print(
         f"\nordering transition-only > PF > PF smoother (medians): {'yes' if order else 'NO'}; "
@@ -144,11 +162,11 @@ def report(rows: list[dict]) -> None:
 def speed() -> None:
     from sportfusion.climbing.grips import grip_columns
     from sportfusion.climbing.holds import validate
-    from sportfusion.climbing.particles import run_particle_filter
+    from sportfusion.climbing.particles import PFParams, run_particle_filter
     from sportfusion.climbing.transition import estimate_transitions
     from sportfusion.core import schema
 
-    sim, cols, tr, (t_grip, t_track) = _pipeline(SEED0 + 7, duration=60.0, imu_rate=100.0)
+    sim, cols, tr, (t_grip, t_track), _ = _pipeline(SEED0 + 7, duration=60.0, imu_rate=100.0)
     n = int(tr.rows.sum())
     # the stages one by one: transition estimator, PF alone, PF + smoother
     hm = validate(sim.holds, sim.holds_meta)
@@ -180,12 +198,29 @@ def speed() -> None:
     c = time.perf_counter()
     run_particle_filter(*args, smooth=True)
     d = time.perf_counter()
+    # the smoothers alone, CPU time, 200 and 800 particles: backward simulation vs FFBSm, same run
+    smoother_cpu = {}
+    for m in (200, 800):
+        for name in ("backward", "ffbsm"):
+            pp = PFParams(particles=m, smoother=name)
+            c0 = time.process_time()
+            run_particle_filter(*args, params=pp, smooth=False)
+            c1 = time.process_time()
+            run_particle_filter(*args, params=pp, smooth=True)
+            c2 = time.process_time()
+            smoother_cpu[m, name] = ((c2 - c1) - (c1 - c0)) / n * 1e6
     print(f"\nSpeed: one trial of {n / 100:.0f} s at 100 Hz ({n} samples), one core")
     print(f"  grip detection          {t_grip:6.2f} s")
     print(f"  transition estimator    {b - a:6.2f} s  ({res.iterations} iterations)")
     print(f"  particle filter (200)   {c - b:6.2f} s  ({(c - b) / n * 1e6:.0f} us/step; DESIGN: ~69 us/step numpy)")
     smooth = (d - c) - (c - b)
-    print(f"  PF + FFBSm smoother     {d - c:6.2f} s  (smoother {smooth / n * 1e6:.0f} us/step; DESIGN: ~860 us/step)")
+    print(f"  PF + smoother           {d - c:6.2f} s  (smoother {smooth / n * 1e6:.0f} us/step wall)")
+    for m in (200, 800):
+        bw, ff = smoother_cpu[m, "backward"], smoother_cpu[m, "ffbsm"]
+        print(
+            f"  smoother CPU, {m} particles: backward simulation {bw:.0f} us/step, FFBSm {ff:.0f} us/step "
+            f"(x{ff / bw:.1f}; target backward <= 150 us/step at 200)"
+        )
     print(f"  end to end (grips + estimator + PF + smoother) {t_grip + t_track:6.2f} s  (issue: < 10 s)")
 
 

@@ -59,7 +59,7 @@ def speed() -> None:
     dav = (time.perf_counter() - t0) / 200_000
     print(f"== speed: batched QUEST on {N:,} samples (two vectors: specific force, magnetic field)")
     print(f"  {'method':<34} {'[us/sample]':>12} {'x ours':>8} {'max diff [deg]':>15}  reference")
-    print(f"  {'sportfusion QUEST (batched numpy)':<34} {ours * 1e6:12.3f} {1.0:8.1f} {0.0:15.1e}  0.36 us (DESIGN)")
+    print(f"  {'sportfusion QUEST (compiled)   ':<34} {ours * 1e6:12.3f} {1.0:8.1f} {0.0:15.1e}  0.36 us (DESIGN)")
     print(f"  {'sportfusion dmc_attitude (all out)':<34} {full_us * 1e6:12.3f} {full_us / ours:8.1f} {'':>15}")
     d = np.degrees(np.max(quat_angle(qq[:200_000], qd)))
     print(f"  {'Davenport q-method (numpy eigh)':<34} {dav * 1e6:12.3f} {dav / ours:8.1f} {d:15.1e}")

@@ -72,6 +72,9 @@ def one(job: tuple[int, tuple[str, ...]]) -> dict:
         to, td = [times["takeoff"]], [times["touchdown"]]
     out = {"seed": seed, "detected": len(det.jumps) == 1, "dt_td": td[0] - times["touchdown"]}
     configs = {"rts": SmootherConfig(), "nohill": SmootherConfig(hill_constraints=False)}
+    if "init" in variants:  # the start: the former blanket re-linearisation vs the rest-based initial state
+        configs["old_start"] = SmootherConfig(init_rest_max=0.0, passes=5, pass_window=120.0, pass_after_takeoff=0.0)
+        configs["one_pass"] = SmootherConfig(passes=1)
     if "variants" in variants:
         configs["la_full"] = SmootherConfig(la_ramp=0.0)
         configs["la_delay"] = SmootherConfig(la_ramp=0.0, la_delay=0.1)
@@ -101,18 +104,26 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=20, help="number of simulated jumps (seeds 0..n-1)")
     ap.add_argument("--quick", action="store_true", help="5 jumps")
     ap.add_argument("--variants", action="store_true", help="also compare landing-constraint start variants")
+    ap.add_argument(
+        "--init",
+        action="store_true",
+        help="also run the former start (5 re-linearisation passes over 120 s, QUEST on the first 0.1 s) "
+        "and a single pass, beside the default (rest-based start, up to 3 passes over the in-run)",
+    )
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1), help="worker processes")
     a = ap.parse_args()
     n = 5 if a.quick else a.n
     t0 = time.perf_counter()
-    jobs = [(s, ("variants",) if a.variants else ()) for s in range(n)]
+    flags = (("variants",) if a.variants else ()) + (("init",) if a.init else ())
+    jobs = [(s, flags) for s in range(n)]
     if a.jobs > 1:
         with ProcessPoolExecutor(a.jobs) as ex:
             rows = list(ex.map(one, jobs))
     else:
         rows = [one(j) for j in jobs]
     wall = time.perf_counter() - t0
-    names = ["rts", "nohill"] + (["la_full", "la_delay", "la_ramp_delay"] if a.variants else [])
+    names = ["rts", "nohill"] + (["old_start", "one_pass"] if a.init else [])
+    names += ["la_full", "la_delay", "la_ramp_delay"] if a.variants else []
     print(f"rts-smooth accuracy: {n} simulated jumps on Oberstdorf HS106, paper noise (Tables 3-5)")
     print(
         f"touch-down detected in {sum(r['detected'] for r in rows)}/{n} jumps; "

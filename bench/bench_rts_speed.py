@@ -49,7 +49,7 @@ def build(rest_after: float):  # noqa: ANN201
     hill = load_hill("oberstdorf_hs106")
     sim = simulate_skijump(hill, SkiJumpConfig(seed=0, rest_after=rest_after))
     tt = sim.truth_meta["skijump"]["times"]
-    cfg = SmootherConfig(passes=1)
+    cfg = SmootherConfig(passes=1, pass_window=math.inf)  # one pass over the whole session, nothing else
     inp, _ = session_inputs(sim.session, sim.session_meta, hill, cfg, [tt["takeoff"]], [tt["touchdown"]])
     return hill, sim, inp, cfg, tt
 

@@ -47,8 +47,7 @@ class Tool:
     def write(self, table: pa.Table, meta: dict[str, Any], params: dict[str, Any] | None = None) -> None:
         """Append this tool's provenance step and write the table (built whole, then written)."""
         step = dict(self.params if params is None else params)
-        data = sfio.table_to_bytes(table, sfmeta.add_provenance(meta, self.name, step))
-        sfio.write_bytes(data, self.output)
+        sfio.write_table(table, sfmeta.add_provenance(meta, self.name, step), self.output)  # one buffer, no copy
 
     # -- messages -----------------------------------------------------
     def info(self, message: str) -> None:

@@ -6,7 +6,7 @@ import click
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
-from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump, write_raw
+from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
 
@@ -60,7 +60,7 @@ DEFAULT_HILL = "oberstdorf_hs106"
 )
 @click.option(
     "--start",
-    default=SkiJumpConfig.start,
+    default=DEFAULT_START,
     show_default=True,
     help="UTC time of t = 0 [ISO-8601]; sets the World Magnetic Model date.",
 )
@@ -145,6 +145,8 @@ def main(
     10 Hz (3/3/5 m, 0.1/0.1/0.3 m/s). The session goes to stdout; --truth gets
     the true_ columns, the take-off/touch-down events and the jump length
     (curve length of the landing profile from F to the skis' touch-down point)."""
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump, write_raw
+
     extra = list(hill_set)
     if origin is not None:
         lat, lon, h = parse_floats(origin, 3, "--origin")

@@ -11,7 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
-import cv2
 import numpy as np
 import pyarrow as pa
 
@@ -19,9 +18,7 @@ from sportfusion import __version__
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
-from sportfusion.skijump.video.annotate import grid_image, write_debug
 from sportfusion.skijump.video.markers import markers_path_for, read_markers
-from sportfusion.skijump.video.measure import measure_video
 from sportfusion.tools._cli import Group, Tool, tool
 
 COLUMNS = (
@@ -98,6 +95,9 @@ def measure(tool: Tool, videos: tuple[str, ...], markers_path: str | None, debug
     the first frame], jump_length [m], std_jump_length [m], confidence (the
     probability of being within the paper's 0.5 m), touchdown_speed [m/s],
     video_fps [1/s]."""
+    from sportfusion.skijump.video.annotate import write_debug
+    from sportfusion.skijump.video.measure import measure_video
+
     rows: dict[str, list[object]] = {c: [] for c in COLUMNS}
     for video in videos:
         if not Path(video).is_file():
@@ -156,6 +156,10 @@ def calibrate(tool: Tool, video: str, output: str | None, step: int) -> None:
     marker's foot on the snow for the marker CSV: distance [m] along the
     landing profile from F, y [m] the marker line's lateral position, col and
     row [px]. Measure markers on both sides of the landing slope."""
+    import cv2
+
+    from sportfusion.skijump.video.annotate import grid_image
+
     out = Path(output) if output else Path(video).with_name(Path(video).stem + ".grid.png")
     img = grid_image(video, step)
     try:

@@ -1,31 +1,46 @@
 """Batched SO(3) helpers for the climbing estimators (rotation matrices and rotation vectors).
 
-Exp/Log go through :class:`scipy.spatial.transform.Rotation` (robust near 0 and pi);
+Exp/Log go through unit quaternions (Shepperd's method from the matrix, ``atan2`` for
+the angle: robust near 0 and pi; numpy only, no scipy import);
 the right Jacobians are the closed forms of Barfoot's *State Estimation for
 Robotics* (eqs 7.77 and 7.80), with series expansions for small angles.
-Quaternions in this package are scalar first (scipy is asked for that explicitly).
+Quaternions in this package are scalar first; a "rotation matrix" here is the Hamilton
+``R(q)`` (scipy's ``as_matrix``), the transpose of core.rotations' ``M_BO``.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from sportfusion.core.rotations import dcm_from_quat, quat_from_dcm
 from sportfusion.core.rotations import skew as hat
 
 _SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
 
 
+def _quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
+    th = np.linalg.norm(phi, axis=-1)
+    half = 0.5 * th
+    # sin(th/2)/th, with its series below 1e-4 rad
+    k = np.where(th < 1e-4, 0.5 - th**2 / 48.0, np.sin(half) / np.where(th < 1e-4, 1.0, th))
+    return np.concatenate((np.cos(half)[..., None], k[..., None] * phi), axis=-1)
+
+
 def exp(phi: np.ndarray) -> np.ndarray:
     """Rotation matrices from rotation vectors ``phi`` [rad] (..., 3) -> (..., 3, 3)."""
     phi = np.asarray(phi, dtype=np.float64)
-    return Rotation.from_rotvec(phi.reshape(-1, 3)).as_matrix().reshape(phi.shape[:-1] + (3, 3))
+    return matrix_from_quat(_quat_from_rotvec(phi))
 
 
 def log(r: np.ndarray) -> np.ndarray:
-    """Rotation vectors [rad] of rotation matrices ``r`` (..., 3, 3) -> (..., 3)."""
-    r = np.asarray(r, dtype=np.float64)
-    return Rotation.from_matrix(r.reshape(-1, 3, 3)).as_rotvec().reshape(r.shape[:-2] + (3,))
+    """Rotation vectors [rad] of rotation matrices ``r`` (..., 3, 3) -> (..., 3), angle in [0, pi]."""
+    q = quat_from_matrix(r)
+    v = q[..., 1:]
+    sv = np.linalg.norm(v, axis=-1)
+    th = 2.0 * np.arctan2(sv, q[..., 0])
+    # th / sin(th/2), with its series for tiny angles (w ~ 1)
+    k = np.where(sv < 1e-8, 2.0 / np.maximum(q[..., 0], 1e-300), th / np.where(sv < 1e-8, 1.0, sv))
+    return k[..., None] * v
 
 
 def _coeffs(phi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -53,15 +68,12 @@ def jr_inv(phi: np.ndarray) -> np.ndarray:
 def quat_from_matrix(r: np.ndarray) -> np.ndarray:
     """Scalar-first unit quaternions (w >= 0) of rotation matrices (..., 3, 3) -> (..., 4)."""
     r = np.asarray(r, dtype=np.float64)
-    q = Rotation.from_matrix(r.reshape(-1, 3, 3)).as_quat(scalar_first=True)
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q.reshape(r.shape[:-2] + (4,))
+    return quat_from_dcm(np.swapaxes(r, -1, -2))
 
 
 def matrix_from_quat(q: np.ndarray) -> np.ndarray:
     """Rotation matrices of scalar-first quaternions (..., 4) -> (..., 3, 3)."""
-    q = np.asarray(q, dtype=np.float64)
-    return Rotation.from_quat(q.reshape(-1, 4), scalar_first=True).as_matrix().reshape(q.shape[:-1] + (3, 3))
+    return np.swapaxes(dcm_from_quat(np.asarray(q, dtype=np.float64)), -1, -2)
 
 
 def axis_rotation(axis: np.ndarray, angle: np.ndarray, v: np.ndarray) -> np.ndarray:

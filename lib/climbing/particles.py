@@ -30,7 +30,9 @@ likely cluster.  Systematic resampling when the effective sample size drops belo
 half the particles.  The PF starts at the first grip, with the particles split evenly
 between the route's two start holds.
 
-The smoother is the forward-filtering backward-smoothing (FFBSm) marginal smoother of
+The smoother (default) is backward simulation (Godsill, Doucet & West) with Metropolis-Hastings
+moves from each trajectory's filter ancestor, O(M) per step; the alternative
+(``PFParams.smoother = "ffbsm"``) is the forward-filtering backward-smoothing (FFBSm) marginal smoother of
 Doucet and Johansen (the paper's [18], as in its implementation): with the filter's
 weights ``w_k`` and the Gaussian transition density ``f`` of the model above,
 ``w_k|N(i) ~ w_k(i) sum_j w_k+1|N(j) f(x_k+1(j) | x_k(i)) / sum_l w_k(l) f(x_k+1(j) | x_k(l))``,
@@ -44,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.estimators.particles import effective_size, reweight, systematic_resample
+from sportfusion.estimators.particles import backward_simulation, effective_size, reweight, systematic_resample
 
 ELSEWHERE = -1
 
@@ -136,6 +138,12 @@ class PFParams:
     ess_fraction : float
         Resample when ESS < this fraction of M.
     hold : HoldModel
+    smoother : str
+        ``"backward"``: backward simulation with MCMC moves, O(M) per step
+        (:func:`sportfusion.estimators.particles.backward_simulation`); ``"ffbsm"``: the
+        marginal FFBSm smoother, O(M^2) per step (the paper's implementation).
+    smoother_moves : int
+        Metropolis-Hastings moves per trajectory and step of the backward simulation.
     """
 
     particles: int = 200
@@ -144,6 +152,8 @@ class PFParams:
     start_yaw_sigma: float = 0.05
     ess_fraction: float = 0.5
     hold: HoldModel = HoldModel()
+    smoother: str = "backward"
+    smoother_moves: int = 1
 
 
 @dataclass
@@ -255,6 +265,8 @@ def run_particle_filter(
     hist_psi = np.empty((n, m))
     hist_w = np.empty((n, m))
     hist_lab = np.empty((n, m), dtype=np.int64)
+    anc = np.empty((max(n - 1, 0), m), dtype=np.int64)  # anc[k, j]: particle at k that j at k+1 came from
+    anc[:] = np.arange(m)
     out_pos = np.full((n, 3), np.nan)
     out_lab = np.full(n, -2, dtype=np.int64)
     out_prob = np.full(n, np.nan)
@@ -290,13 +302,20 @@ def run_particle_filter(
         out_lab[k], out_prob[k] = best - 1, prob
         if grip[k] and effective_size(w) < p.ess_fraction * m:
             idx = systematic_resample(w, u_res[k])
+            if k < n - 1:
+                anc[k] = idx
             pos, psi, lab = pos[idx], psi[idx], lab[idx]
             w = np.full(m, 1.0 / m)
             resamples += 1
             dirty = True
     res = PFResult(k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples)
     if smooth:
-        ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
+        if p.smoother == "ffbsm":
+            ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
+        elif p.smoother == "backward":
+            ws = _backward(hist_pos, hist_psi, hist_w, anc, model, k0, rng, p.smoother_moves)
+        else:
+            raise InputError(f"smoother {p.smoother!r} is not backward or ffbsm")
         sp = np.full((n, 3), np.nan)
         sl = np.full(n, -2, dtype=np.int64)
         sprob = np.full(n, np.nan)
@@ -305,6 +324,54 @@ def run_particle_filter(
             sp[k], sl[k], sprob[k], syaw[k] = _clusters(ws[k], hist_lab[k], hist_pos[k], hist_psi[k])
         res.smooth_pos, res.smooth_label, res.smooth_prob, res.smooth_yaw = sp, sl, sprob, syaw
     return res
+
+
+def _backward(
+    pos: np.ndarray,
+    psi: np.ndarray,
+    w: np.ndarray,
+    anc: np.ndarray,
+    model: _Model,
+    k0: int,
+    rng: np.random.Generator,
+    moves: int,
+) -> np.ndarray:
+    """Smoothed weights (n, m) by backward simulation (O(m) per step); rows before ``k0`` are zero.
+
+    The transition density of eq 17 in whitened coordinates, prepared for all steps at once:
+    ``log f(j | i) = -|B_k(j) - A_k(i)|^2 / 2`` with ``A_k = L_k^-1 predict(x_k)`` and
+    ``B_k = L_k^-1 p_k+1`` (position; yaw alike with its 1-sigma).
+    """
+    n, m = w.shape
+    if n - 1 <= k0:
+        return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
+    horiz = model.step - model.ustep
+    a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
+    b = np.empty((n, m, 4))
+    for c0 in range(k0, n - 1, 1024):  # in blocks of steps: the temporaries stay small
+        sl = slice(c0, min(c0 + 1024, n - 1))
+        nx = slice(c0 + 1, sl.stop + 1)
+        c = np.cos(psi[sl])[..., None]
+        pred = pos[sl] + model.ustep[sl, None, :]  # eq 17 at zero noise: ustep + horiz cos + kstep sin
+        pred += horiz[sl, None, :] * c
+        pred += model.kstep[sl, None, :] * np.sin(psi[sl])[..., None]
+        lt = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)  # L^-T per step
+        sy = (1.0 / model.yaw_sigma[sl])[:, None, None]
+        np.matmul(pred, lt, out=a[sl, :, :3])
+        np.matmul(pos[nx], lt, out=b[sl, :, :3])
+        np.multiply(psi[sl, :, None], sy, out=a[sl, :, 3:])
+        np.multiply(psi[nx, :, None], sy, out=b[sl, :, 3:])
+
+    memo: list = [-1, None, None]  # the step's b_k(j): the same j for every move of a step
+
+    def log_f(k: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        if memo[0] != k or memo[1] is not j:
+            memo[:] = [k, j, b[k][j]]
+        d = memo[2] - a[k][i]
+        d *= d
+        return -0.5 * d.sum(axis=1)
+
+    return backward_simulation(w, anc, log_f, rng, k0, moves)
 
 
 def _ffbsm(pos: np.ndarray, psi: np.ndarray, w: np.ndarray, model: _Model, k0: int) -> np.ndarray:

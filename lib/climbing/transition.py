@@ -35,14 +35,16 @@ plus the rank-9 bias correction.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.linalg import cho_solve_banded, cholesky_banded
 
 from sportfusion.climbing import _so3
 from sportfusion.climbing.orientation import complementary_filter
 from sportfusion.core.errors import InputError
+
+if TYPE_CHECKING:  # imported where used: a command that never calls it does not pay the import
+    import scipy.sparse as sp
 
 NX = 6  # tangent dimension per sample: rotation (3), velocity (3)
 NB = 9  # biases: accelerometer, gyroscope, magnetometer
@@ -209,6 +211,8 @@ def sparse_jacobian(prob: Problem, lin: Linearization) -> sp.csr_matrix:
     biases (acc, gyr, mag) at ``6n .. 6n+8``.  Rows: dynamic model (6 per step),
     magnetometer (3 per used sample), zero velocity (3 per grip sample), bias priors (9).
     """
+    import scipy.sparse as sp
+
     n, m = prob.n, prob.n - 1
     rows, cols, vals = [], [], []
     k = np.arange(m)
@@ -312,6 +316,8 @@ def solve_step(ne: Normal, lam: float) -> tuple[np.ndarray, np.ndarray, tuple]:
 
     Returns the state step (n, 6), the bias step (9,) and the factors reused for the covariance.
     """
+    from scipy.linalg import cho_solve_banded, cholesky_banded
+
     n = ne.hd.shape[0]
     try:
         c = cholesky_banded(_banded(ne, lam), lower=True)

@@ -33,17 +33,19 @@ import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyarrow as pa
-from pyproj import Transformer
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import normal_gravity
 from sportfusion.core.rotations import local_to_ned, ned_to_local
 from sportfusion.core.session import with_columns
+
+if TYPE_CHECKING:  # imported where used: a command that never calls it does not pay the import
+    from pyproj import Transformer
 
 __all__ = [
     "Frame",
@@ -143,6 +145,8 @@ class Frame:
 
 @functools.lru_cache(maxsize=32)
 def _topocentric(lat0: float, lon0: float, h0: float) -> Transformer:
+    from pyproj import Transformer
+
     return Transformer.from_pipeline(
         "+proj=pipeline +step +proj=cart +ellps=WGS84 "
         f"+step +proj=topocentric +ellps=WGS84 +lat_0={lat0!r} +lon_0={lon0!r} +h_0={h0!r}"

@@ -123,11 +123,23 @@ def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
     return table.cast(pa.schema(fields, metadata=md))
 
 
+def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
+    """Serialise a table with its metadata to a Parquet buffer (zstd), without copying it to ``bytes``.
+
+    Dictionary encoding is asked for on the non-float columns only: on float
+    columns (sensor samples, estimates) it never pays, and trying it costs more
+    than the compression itself.
+    """
+    table = finalize(table, meta)
+    dictionary = [f.name for f in table.schema if not pa.types.is_floating(f.type)]
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, compression="zstd", use_dictionary=dictionary)
+    return sink.getvalue()
+
+
 def table_to_bytes(table: pa.Table, meta: dict[str, Any]) -> bytes:
     """Serialise a table with its metadata to Parquet bytes (zstd)."""
-    sink = pa.BufferOutputStream()
-    pq.write_table(finalize(table, meta), sink, compression="zstd")
-    return sink.getvalue().to_pybytes()
+    return table_to_buffer(table, meta).to_pybytes()
 
 
 def _umask() -> int:
@@ -136,8 +148,10 @@ def _umask() -> int:
     return mask
 
 
-def write_bytes(data: bytes, dest: str | os.PathLike[str] | BinaryIO | None) -> None:
-    """Write bytes to stdout (``None``/``"-"``), a stream, or atomically to a path."""
+def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[str] | BinaryIO | None) -> None:
+    """Write bytes (or any buffer) to stdout (``None``/``"-"``), a stream, or atomically to a path."""
+    if isinstance(data, pa.Buffer):
+        data = memoryview(data)
     if dest is None or dest == "-":
         sys.stdout.buffer.write(data)
         sys.stdout.buffer.flush()
@@ -160,4 +174,4 @@ def write_bytes(data: bytes, dest: str | os.PathLike[str] | BinaryIO | None) -> 
 
 def write_table(table: pa.Table, meta: dict[str, Any], dest: str | os.PathLike[str] | BinaryIO | None = None) -> None:
     """Write a table with its metadata as Parquet to ``dest`` (stdout by default)."""
-    write_bytes(table_to_bytes(table, meta), dest)
+    write_bytes(table_to_buffer(table, meta), dest)

@@ -25,7 +25,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 __all__ = [
     "Measurement",
@@ -123,6 +122,8 @@ def _check_psd(P: np.ndarray, k: int, t, phase: str) -> None:
 
 def _update(x: np.ndarray, P: np.ndarray, meas: list[Measurement], k: int, t):
     """Stacked Joseph-form update (eqs 14-16); returns x, P and the innovations."""
+    import scipy.linalg
+
     n = x.size
     rs, Hs, Rs = [], [], []
     for m in meas:
@@ -202,6 +203,8 @@ def ekf_rts(
         When a covariance becomes non-finite or not positive (semi-)definite, or an
         innovation covariance is singular; the message names the step (and time).
     """
+    import scipy.linalg
+
     x0 = np.asarray(x0, dtype=float).copy()
     n = x0.size
     N = int(n_steps)
@@ -299,6 +302,8 @@ def discretize(
     Phi : array (n, n)
     Qd : array (n, n), symmetric
     """
+    import scipy.linalg
+
     A = np.asarray(A, dtype=float)
     G = np.asarray(G, dtype=float)
     Qc = np.asarray(Qc, dtype=float)

@@ -27,6 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
+# from this many samples on, QUEST runs compiled (numba, loaded on first use); below, numpy
+_COMPILED_FROM = 20_000
+
 
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
@@ -100,6 +103,11 @@ def quest(
     b = np.asarray(body, float)
     r = np.asarray(ref, float)
     n = b.shape[0]
+    if n >= _COMPILED_FROM:
+        from sportfusion.estimators._quest_kernel import quest_batch
+
+        rr = r[None] if r.ndim == 2 else r
+        return quest_batch(np.ascontiguousarray(b), np.ascontiguousarray(rr), a, int(newton_steps))
     q = np.empty((n, 4))
     loss = np.empty(n)
     for s in range(0, n, chunk):

@@ -34,8 +34,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_banded, solveh_banded
-from scipy.optimize import minimize_scalar
 
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import time_step_problem
@@ -99,6 +97,10 @@ class NaturalCubicSpline:
         t, g, c = self.t, self.g, self.gamma
         tq = np.asarray(tq, dtype=float)
         n = t.size
+        if n > 1 and tq.ndim == 1 and tq.size >= _COMPILED_FROM:
+            from sportfusion.estimators._banded_kernels import spline_eval
+
+            return spline_eval(t, np.ascontiguousarray(g, float), np.ascontiguousarray(c, float), tq)
         if n == 1:
             z = np.zeros((tq.size, g.shape[1]))
             return np.broadcast_to(g[0], z.shape).copy(), z, z.copy()
@@ -131,6 +133,12 @@ class NaturalCubicSpline:
         """
         t = self.t
         xg, wg = np.polynomial.legendre.leggauss(5)
+        tq = np.asarray(tq, dtype=float)
+        if t.size > 1 and tq.ndim == 1 and max(tq.size, t.size) >= _COMPILED_FROM:
+            from sportfusion.estimators._banded_kernels import arc_length
+
+            g = np.ascontiguousarray(self.g, float)
+            return arc_length(t, g, np.ascontiguousarray(self.gamma, float), tq, xg, wg)
 
         def integral(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             mid, half = (a + b) / 2, (b - a) / 2
@@ -142,6 +150,11 @@ class NaturalCubicSpline:
         tq = np.asarray(tq, dtype=float)
         k = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, t.size - 2)
         return cum[k] + integral(t[k], tq)
+
+
+# from this many points on, evaluation and arc length run compiled (numba, loaded on first use);
+# below, numpy (no numba import for small calls)
+_COMPILED_FROM = 20_000
 
 
 @dataclass
@@ -212,6 +225,14 @@ def _line_fit(t: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), compiled: O(m), ~10 ns per row."""
+    from sportfusion.estimators._banded_kernels import ldl_inverse_bands
+
+    ab = np.ascontiguousarray(ab)
+    return ldl_inverse_bands(ab[0], ab[1], ab[2])
+
+
+def _ldl_inverse_bands_py(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Central bands of ``B^{-1}`` for a symmetric pentadiagonal ``B`` (lower storage ``ab``).
 
     LDL^T without pivoting, then the Hutchinson-de Hoog (Takahashi) recursion
@@ -254,6 +275,13 @@ def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def _qzqt_diag(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
+    """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots); compiled."""
+    from sportfusion.estimators._banded_kernels import qzqt_diag
+
+    return qzqt_diag(np.ascontiguousarray(h, float), z0, z1, z2)
+
+
+def _qzqt_diag_py(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
     """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots)."""
     n = h.size + 1
     q0, q1, q2 = _qcoef(h)
@@ -284,10 +312,17 @@ def _qzqt_diag(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) ->
 
 
 def _minv_diag(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
-    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed)."""
+    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); compiled, O(n)."""
+    from sportfusion.estimators._banded_kernels import minv_diag
+
+    return minv_diag(np.ascontiguousarray(h, float), np.ascontiguousarray(1.0 / w), float(alpha))
+
+
+def _minv_diag_py(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
+    """Reference (numpy + the Python recursion) for :func:`_minv_diag`."""
     winv = 1.0 / w
-    z = _ldl_inverse_bands(_reinsch_bands(h, winv, alpha))
-    return winv - alpha * winv**2 * _qzqt_diag(h, *z)
+    z = _ldl_inverse_bands_py(_reinsch_bands(h, winv, alpha))
+    return winv - alpha * winv**2 * _qzqt_diag_py(h, *z)
 
 
 def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tuple[float, float]:
@@ -303,12 +338,15 @@ def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tupl
     n = t.size
     g, _ = _reinsch(h, y, w, alpha)
     r = y[:, 0] - g[:, 0]
-    tr = n - alpha * float(np.sum(_qzqt_diag(h, *_ldl_inverse_bands(_reinsch_bands(h, 1.0 / w, alpha))) / w))
+    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled
+    tr = float(np.sum(w * _minv_diag(h, w, alpha)))
     return float(np.sum(w * r * r) / n / (1.0 - tr / n) ** 2), tr
 
 
 def _reinsch(h: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """Knot values g and second derivatives gamma (both (n, d)) for a constant penalty."""
+    from scipy.linalg import solveh_banded
+
     n = h.size + 1
     d = y.shape[1]
     if n == 2 or not np.isfinite(alpha):
@@ -354,6 +392,8 @@ def _solve_kkt(h: np.ndarray, y: np.ndarray, w: np.ndarray, rho: np.ndarray) -> 
     ``R_rho`` weights interval k's contribution to ``integral S''^2`` by
     ``rho_k``; with a constant ``rho`` it reduces to Reinsch's system.
     """
+    from scipy.linalg import solve_banded
+
     n = h.size + 1
     N = 3 * n
     lu = 5
@@ -465,7 +505,19 @@ def smoothing_spline(
     alphas = np.array([penalty_from_lambda(v) for v in lams])
     std = None
     if S is not None and not segments:
-        std = np.column_stack([_propagated_std(h, W[:, c], alphas[c], S[:, c]) for c in range(d)])
+        # columns with the same weights, sigmas and penalty (x and y, typically) share one computation
+        cols: list[np.ndarray] = []
+        for c in range(d):
+            same = next(
+                (
+                    j
+                    for j in range(c)
+                    if alphas[j] == alphas[c] and np.array_equal(W[:, j], W[:, c]) and np.array_equal(S[:, j], S[:, c])
+                ),
+                None,
+            )
+            cols.append(cols[same] if same is not None else _propagated_std(h, W[:, c], alphas[c], S[:, c]))
+        std = np.column_stack(cols)
     return SplineFit(NaturalCubicSpline(t, g, gam), lams, alphas, std)
 
 
@@ -497,6 +549,8 @@ def gcv_lambda(t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> flo
     Searched on ``log10(alpha)`` over a coarse grid spanning the data's time
     scales, then refined by a bounded Brent search around the best grid point.
     """
+    from scipy.optimize import minimize_scalar
+
     t = np.asarray(t, float)
     y = np.asarray(y, float)
     w = np.ones_like(t) if w is None else np.asarray(w, float)

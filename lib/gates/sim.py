@@ -41,7 +41,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
-from scipy.interpolate import CubicSpline
 
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.frames import local_to_geodetic
@@ -133,6 +132,8 @@ class _Terrain:
     """Snow surface z = F(x, y) (z down): slope varying along x, a slight cross slope, flat run-out."""
 
     def __init__(self, cfg: GatesConfig, rng: np.random.Generator, x_finish: float, x_end: float) -> None:
+        from scipy.interpolate import CubicSpline
+
         self.xg = np.linspace(-20.0, x_end + 50.0, 4000)
         ph = rng.uniform(0, 2 * np.pi, 2)
         shape = (
@@ -162,6 +163,8 @@ class _Terrain:
 
 def _course(cfg: GatesConfig, rng: np.random.Generator) -> dict:
     """Gate positions (horizontal) and sides, and the sacrum's horizontal path y(x)."""
+    from scipy.interpolate import CubicSpline
+
     n = cfg.n_gates
     side0 = rng.choice([-1.0, 1.0])
     sides = side0 * (-1.0) ** np.arange(n)  # -1: gate left of the centre line (a right turn)
@@ -199,6 +202,8 @@ def _course(cfg: GatesConfig, rng: np.random.Generator) -> dict:
 
 def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     """Course, terrain and the sacrum's truth on the fine grid."""
+    from scipy.interpolate import CubicSpline
+
     c = _course(cfg, rng)
     ter = _Terrain(cfg, rng, c["x_finish"], c["x_end"])
     path = c["path"]

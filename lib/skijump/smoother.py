@@ -21,8 +21,10 @@ Constraint windows (eqs 32-34, 51), per jump of the session:
 
 Initial state (paper §4.1): position and NED velocity of the first GNSS fix,
 attitude by QUEST (:func:`sportfusion.estimators.quest.quest`) from the mean
-accelerometer and magnetometer samples of the first ``init_window`` seconds
-(gravity up and the reference field), parameters zero; ``P0``, ``Q``, ``R`` are
+accelerometer and magnetometer samples of the rest at the start (at least the
+first ``init_window`` seconds, extended while the sensor is still, at most
+``init_rest_max``; gravity up and the reference field), the gyro bias the mean
+rate over that rest, other parameters zero; ``P0``, ``Q``, ``R`` are
 Tables 3-5 as 1-sigma values in :class:`SmootherConfig`, all overridable from a
 TOML file (:func:`load_config`).  The reference field is the hill file's, else
 the World Magnetic Model at the take-off edge and the session's date.
@@ -59,13 +61,40 @@ from sportfusion.skijump.smoother_inputs import (
 )
 
 
+def _initial_rest(inp: SkiJumpInputs, cfg: SmootherConfig) -> np.ndarray:
+    """Steps of the rest at the start (mask): at least ``init_window`` s, extended while the sensor is still.
+
+    Still: every gyro and accelerometer sample within ``init_rest_gyr`` [rad/s] and
+    ``init_rest_acc`` [m/s^2] of the first ``init_window``'s means, for at most
+    ``init_rest_max`` seconds.  Averaging the magnetometer and accelerometer over the
+    whole rest gives QUEST a better heading than the first samples alone, and the mean
+    rate there is the gyro bias: the smoother then starts in its linear regime.
+    """
+    t, u = inp.t, inp.u
+    first = t <= t[0] + cfg.init_window
+    if cfg.init_rest_max <= cfg.init_window:
+        return first
+    g0, a0 = u[first, 0:3].mean(axis=0), u[first, 3:6].mean(axis=0)
+    cand = np.flatnonzero(t <= t[0] + cfg.init_rest_max)
+    moving = (np.linalg.norm(u[cand, 0:3] - g0, axis=1) > cfg.init_rest_gyr) | (
+        np.linalg.norm(u[cand, 3:6] - a0, axis=1) > cfg.init_rest_acc
+    )
+    end = int(np.argmax(moving)) if moving.any() else cand.size
+    rest = np.zeros(t.size, dtype=bool)
+    rest[: max(end, int(first.sum()))] = True
+    return rest
+
+
 def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Paper §4.1: first GNSS fix, QUEST attitude from the first samples, zero parameters; Table 3 P0."""
+    """Paper §4.1: first GNSS fix, QUEST attitude from the rest at the start, gyro bias its mean rate; Table 3 P0."""
     x0 = np.zeros(mdl.N)
     ip = int(np.flatnonzero(np.isfinite(inp.pos[:, 0]))[0])
     x0[0:3] = inp.pos[ip]
-    w = inp.t <= inp.t[0] + cfg.init_window
+    w = _initial_rest(inp, cfg)
     acc = inp.u[w, 3:6].mean(axis=0)
+    if w.sum() > np.count_nonzero(inp.t <= inp.t[0] + cfg.init_window):
+        # a rest longer than init_window: the mean rate there is the gyro bias (eq 35, Earth rate neglected)
+        x0[mdl.I_BG] = inp.u[w, 0:3].mean(axis=0)
     mags = inp.mag[w & np.isfinite(inp.mag[:, 0])]
     if mags.shape[0] == 0 and np.isfinite(inp.mag[:, 0]).any():
         mags = inp.mag[np.isfinite(inp.mag[:, 0])][:1]
@@ -157,6 +186,7 @@ class Smoothed:
     x_filt: np.ndarray
     x_smooth: np.ndarray
     cov: Callable[[np.ndarray], np.ndarray]
+    var: Callable[[], np.ndarray]
     residuals: dict[str, np.ndarray]
     passes: list[int]
 
@@ -239,13 +269,20 @@ def smooth_inputs(
 
     A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
     independent segments (each initialised from its own first samples); the
-    results are concatenated.  With ``cfg.passes > 1`` the smoother is re-run from
+    results are concatenated.  The initial state comes from the rest at the start
+    (:func:`initial_state`: QUEST over the whole rest, the gyro bias from its mean
+    rate), which keeps the EKF in its linear regime with one pass (the default).
+    With ``cfg.passes > 1`` the smoother is re-run from
     the smoothed initial state (mean only, same ``P0``) until the initial attitude
     changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
     re-linearises the start, where an attitude error of tens of degrees (gyro
     biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
-    regime.  These passes cover the first ``cfg.pass_window`` seconds; one final
-    pass then covers the whole segment (a single pass when the window covers it).
+    regime.  These passes cover the start of the segment: ``cfg.pass_window`` seconds,
+    extended to ``cfg.pass_after_takeoff`` seconds after the segment's first take-off
+    (the in-run is what pins the heading); one final pass then covers the whole
+    segment (a single pass when the window covers it).  Re-running only this window
+    (at most 3 times by default) costs a fraction of re-running whole segments and
+    is as accurate (``bench/bench_rts_accuracy.py --init``).
     """
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
@@ -259,7 +296,13 @@ def smooth_inputs(
                 "expected GNSS during every recorded stretch"
             )
         x0, P0 = initial_state(seg, cfg)
-        nw = int(np.searchsorted(seg.t, seg.t[0] + cfg.pass_window, side="right"))
+        # the window that needs re-linearising: the start up to the in-run's end (the first take-off in
+        # the segment plus pass_after_takeoff), at least pass_window seconds
+        t_end = seg.t[0] + cfg.pass_window
+        tos = [a for a, _ in seg.jumps if seg.t[0] <= a <= seg.t[-1]]
+        if tos:
+            t_end = max(t_end, min(tos) + cfg.pass_after_takeoff)
+        nw = int(np.searchsorted(seg.t, t_end, side="right"))
         nw = max(min(nw, seg.t.size), 2)
 
         def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202
@@ -275,7 +318,8 @@ def smooth_inputs(
 
         try:
             # re-linearisation passes over the first pass_window seconds, then the whole segment
-            win = seg if nw == seg.t.size else _slice(seg, 0, nw)
+            # (one pass: the whole segment at once, no window run first)
+            win = seg if nw == seg.t.size or cfg.passes <= 1 else _slice(seg, 0, nw)
             done, it, change = None, 0, math.inf
             for it in range(max(cfg.passes, 1)):
                 done = run(win, x0)
@@ -299,9 +343,23 @@ def smooth_inputs(
 
     def cov(idx: np.ndarray) -> np.ndarray:
         idx = np.asarray(idx)
-        if fast is None:
-            return np.concatenate([P[:, idx][:, :, idx] for P in covs])
-        return np.concatenate([fast.unpack_many(P, idx) for P in covs])
+        out = np.empty((inp.t.size, idx.size, idx.size))  # filled segment by segment: no list + concatenate
+        i = 0
+        for P in covs:
+            out[i : i + P.shape[0]] = P[:, idx][:, :, idx] if fast is None else fast.unpack_many(P, idx)
+            i += P.shape[0]
+        return out
+
+    def var() -> np.ndarray:
+        """Smoothed variances (n, 22): the covariances' diagonals, read without unpacking."""
+        iu = np.triu_indices(mdl.N)
+        diag = np.flatnonzero(iu[0] == iu[1])  # packed (upper, row-major) positions of the diagonal
+        out = np.empty((inp.t.size, mdl.N))
+        i = 0
+        for P in covs:
+            out[i : i + P.shape[0]] = np.diagonal(P, axis1=1, axis2=2) if fast is None else P[:, diag]
+            i += P.shape[0]
+        return out
 
     names = {k: v.shape[1] for r in resids for k, v in r.items()}
     out = {k: np.full((inp.t.size, m), np.nan) for k, m in names.items()}
@@ -310,7 +368,7 @@ def smooth_inputs(
         for k, v in r.items():
             out[k][i : i + xf.shape[0]] = v
         i += xf.shape[0]
-    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, out, npass)
+    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, var, out, npass)
 
 
 def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
@@ -323,8 +381,53 @@ def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap:
     return out
 
 
+def euler_jacobian(q: np.ndarray) -> np.ndarray:
+    """d(roll, pitch, yaw)/dq (n, 3, 4) of :func:`sportfusion.core.rotations.euler_from_quat` at ``q`` (n, 4).
+
+    Analytic: roll and yaw are ``atan2`` of two entries of ``M_BO`` (quadratic in q, so the
+    scale of q cancels) and pitch is ``asin(-m02 / |q|^2)``; the derivative is taken with
+    respect to the raw (not necessarily unit) quaternion, as the angles normalise it.
+    """
+    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+    m12, m22 = 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    m01, m00 = 2 * (q1 * q2 + q0 * q3), q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    m02 = 2 * (q1 * q3 - q0 * q2)
+    d12 = 2 * np.stack((q1, q0, q3, q2), axis=-1)
+    d22 = 2 * np.stack((q0, -q1, -q2, q3), axis=-1)
+    d01 = 2 * np.stack((q3, q2, q1, q0), axis=-1)
+    d00 = 2 * np.stack((q0, q1, -q2, -q3), axis=-1)
+    d02 = 2 * np.stack((-q2, q3, -q0, q1), axis=-1)
+    J = np.empty((q.shape[0], 3, 4))
+    J[:, 0] = (m22[:, None] * d12 - m12[:, None] * d22) / (m12 * m12 + m22 * m22)[:, None]
+    sp = -m02 / n2
+    dsp = -(d02 * n2[:, None] - m02[:, None] * 2 * q) / (n2 * n2)[:, None]
+    J[:, 1] = dsp / np.sqrt(np.maximum(1.0 - sp * sp, 1e-300))[:, None]
+    J[:, 2] = (m00[:, None] * d01 - m01[:, None] * d00) / (m01 * m01 + m00 * m00)[:, None]
+    return J
+
+
+def _interp_columns(
+    t_rows: np.ndarray, t: np.ndarray, cols: dict[str, np.ndarray], max_gap: float
+) -> dict[str, np.ndarray]:
+    """:func:`_interp_rows` column by column (no (rows, columns) stack)."""
+    segs = segments(t, max_gap)
+    inside = [(a, b, np.flatnonzero((t_rows >= t[a]) & (t_rows <= t[b - 1]))) for a, b in segs]
+    out = {}
+    for name, v in cols.items():
+        o = np.full(t_rows.size, np.nan)
+        for a, b, rows in inside:
+            o[rows] = np.interp(t_rows[rows], t[a:b], v[a:b])
+        out[name] = o
+    return out
+
+
 def _estimate_columns(
-    x: np.ndarray, cov: Callable[[np.ndarray], np.ndarray] | None, inp: SkiJumpInputs, prefix: str = ""
+    x: np.ndarray,
+    cov: Callable[[np.ndarray], np.ndarray] | None,
+    inp: SkiJumpInputs,
+    prefix: str = "",
+    var: Callable[[], np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """Named estimate columns (at the steps) from states (n, 22) and covariances (n, 22, 22)."""
     mno = m_no(math.radians(inp.azimuth_deg))
@@ -353,36 +456,32 @@ def _estimate_columns(
         cols[f"mag_pred_{a}"] = mag[:, k]
     if cov is None:
         return cols
-    d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
-    P = np.zeros((x.shape[0], 10, 10))
-    P[:, 3:10, 3:10] = cov(np.arange(3, 10))
+    if var is not None:
+        d = np.sqrt(np.maximum(var(), 0.0))
+    else:
+        d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
+    P = cov(np.arange(3, 10))  # (n, 7, 7): v_B and q
     for k, a in enumerate("xyz"):
         cols[f"std_{a}"] = d[:, k]
-    # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
-    dm = mdl.dm_dq(q)  # (n, 4, 3, 3)
-    Jv = np.einsum("ij,nkj->nik", mno, M)  # (n,3,3)  M_NO M^T
-    Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[:, 3:6])  # (n,3,4)  M_NO dM_k^T v
-    J = np.concatenate([Jv, Jq], axis=2)
-    Cv = np.einsum("nij,njk,nlk->nil", J, P[:, 3:10, 3:10], J)
-    sv = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
+    # in blocks of rows: the Jacobians' temporaries stay small (memory per step, not per session)
+    sv, se = np.empty((x.shape[0], 3)), np.empty((x.shape[0], 3))
+    for r0 in range(0, x.shape[0], 8192):
+        r = slice(r0, r0 + 8192)
+        # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
+        dm = mdl.dm_dq(q[r])  # (m, 4, 3, 3)
+        Jv = np.einsum("ij,nkj->nik", mno, M[r])  # (m,3,3)  M_NO M^T
+        Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[r, 3:6])  # (m,3,4)  M_NO dM_k^T v
+        J = np.concatenate([Jv, Jq], axis=2)
+        Cv = np.einsum("nij,njk,nlk->nil", J, P[r], J, optimize=True)
+        sv[r] = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
+        # Euler angles: analytic Jacobian w.r.t. q
+        Je = euler_jacobian(q[r])
+        Ce = np.einsum("nij,njk,nlk->nil", Je, P[r, 3:7, 3:7], Je, optimize=True)
+        se[r] = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
     for k, a in enumerate("xyz"):
         cols[f"std_v{a}"] = sv[:, k]
     for k in range(4):
         cols[f"std_q{k}"] = d[:, 6 + k]
-    # Euler angles: numerical Jacobian w.r.t. q (of the normalised quaternion)
-    eps = 1e-7
-    e0 = np.stack((roll, pitch, yaw), axis=-1)
-    Je = np.empty((q.shape[0], 3, 4))
-    for k in range(4):
-        qp = q.copy()
-        qp[:, k] += eps
-        qp /= np.linalg.norm(qp, axis=1, keepdims=True)
-        e = np.stack(rotations.euler_from_quat(qp), axis=-1)
-        de = e - e0
-        de = (de + np.pi) % (2 * np.pi) - np.pi
-        Je[:, :, k] = de / eps
-    Ce = np.einsum("nij,njk,nlk->nil", Je, P[:, 6:10, 6:10], Je)
-    se = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
     for k, a in enumerate(("roll", "pitch", "yaw")):
         cols[f"std_{a}"] = se[:, k]
     for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
@@ -461,13 +560,14 @@ def rts_smooth_table(
                 res = smooth_inputs(inp, hill, cfg, progress, engine)
             inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     t_rows = schema.floats(table, "t")
-    cols = _estimate_columns(res.x_smooth, res.cov, inp)
+    cols = _estimate_columns(res.x_smooth, res.cov, inp, var=res.var)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
     if filtered:
         cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))
-    names = list(cols)
-    vals = _interp_rows(t_rows, inp.t, np.stack([cols[n] for n in names], axis=-1), cfg.max_gap)
-    out_cols = {n: vals[:, j] for j, n in enumerate(names)}
+    if t_rows.size == inp.t.size and np.array_equal(t_rows, inp.t):
+        out_cols = cols  # every row is an IMU step: nothing to interpolate
+    else:
+        out_cols = _interp_columns(t_rows, inp.t, cols, cfg.max_gap)
     # quaternions interpolated linearly: renormalise
     for pre in ("", "filt_") if filtered else ("",):
         qs = np.stack([out_cols[f"{pre}q{k}"] for k in range(4)], axis=-1)

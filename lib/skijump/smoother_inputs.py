@@ -24,7 +24,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.ndimage import median_filter
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -92,10 +91,14 @@ class SmootherConfig:
     rest_speed: float = 1.0
     max_rest: float = 60.0
     init_window: float = 0.1
+    init_rest_max: float = 5.0
+    init_rest_gyr: float = 0.15
+    init_rest_acc: float = 1.5
     max_gap: float = 1.0
-    passes: int = 5
+    passes: int = 3
     pass_tol_deg: float = 0.05
-    pass_window: float = 120.0
+    pass_window: float = 15.0
+    pass_after_takeoff: float = 3.0
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -257,6 +260,8 @@ def constraint_windows(
     landing : ndarray float (n,)
         Weight of ``c_V,LA`` in [0, 1] (0: inactive).
     """
+    from scipy.ndimage import median_filter
+
     inrun = np.zeros(t.size, bool)
     landing = np.zeros(t.size, float)
     # a running median over 9 GNSS epochs keeps single noisy velocities from splitting a rest

@@ -56,8 +56,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
-from scipy.optimize import minimize_scalar
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -113,6 +111,8 @@ class Track:
     """
 
     def __init__(self, t: np.ndarray, pos: np.ndarray, vel: np.ndarray | None = None) -> None:
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline
+
         self.t = np.asarray(t, float)
         self.pos = np.asarray(pos, float)
         if vel is not None:
@@ -266,6 +266,8 @@ def closest_approach(
         ``times`` [s] and ``gate_distance`` (horizontal) [m] of the gates crossed.
     nearest : (distance [m], gate) of the nearest miss when no gate was crossed, else None.
     """
+    from scipy.optimize import minimize_scalar
+
     t0, t1 = track.span
     times: dict[int, float] = {}
     dists: dict[int, float] = {}

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 import pyarrow as pa
-from scipy.integrate import quad
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
@@ -64,6 +63,8 @@ def path(run: str, x: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
 
 def arc(run: str, x0: float, x1: float) -> float:
     """Arc length [m] of the run's line between course positions x0 and x1 [m] (quad)."""
+    from scipy.integrate import quad
+
     return quad(lambda x: float(np.linalg.norm(path(run, x)[1])), x0, x1, epsabs=1e-10, limit=200)[0]
 
 

@@ -15,7 +15,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import PPoly, make_interp_spline
 
 from sportfusion.sim.smooth import smoothstep5
 
@@ -116,6 +115,8 @@ class ContactPath:
         dx: float = 0.02,
         max_half_width: float = 4.0,
     ) -> None:
+        from scipy.interpolate import PPoly, make_interp_spline
+
         n = int(np.ceil((x1 - x0) / dx)) + 1
         xs = np.linspace(x0, x1, n)
         z = np.asarray(zfun(xs), dtype=float).copy()

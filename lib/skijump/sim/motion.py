@@ -61,7 +61,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import quad, solve_ivp
 
 from sportfusion.core.errors import InputError
 from sportfusion.sim.smooth import pulse_rise_for_peak, pulse_s, smoothstep, smoothstep_s
@@ -106,6 +105,8 @@ class MotionParams:
 # ----------------------------------------------------------------------------- landing settle
 def pulse_moments(t_peak: float, tau_d: float) -> tuple[float, float]:
     """Area [s] and centroid time [s] of the unit-peak impact pulse peaking at ``t_peak``."""
+    from scipy.integrate import quad
+
     tau_r = pulse_rise_for_peak(t_peak, tau_d)
     end = 10 * tau_d
     area = quad(lambda s: pulse_s(s, tau_r, tau_d), 0, end, epsabs=1e-15, epsrel=1e-13, limit=400)[0]
@@ -132,6 +133,8 @@ class Settle:
     def __init__(
         self, d0: float, v0: float, a0: float, t_peak: float, tau_d: float, duration: float, j0: float = 0.0
     ) -> None:
+        from scipy.integrate import quad
+
         self.a0, self.j0, self.T = float(a0), float(j0), float(duration)
         self.ta = 0.03
         self.tau_d = float(tau_d)
@@ -222,6 +225,8 @@ class JumpMotion:
         return (sdd - xd * xd * z1 * z2 / w) / w
 
     def _solve_inrun(self) -> None:
+        from scipy.integrate import solve_ivp
+
         def rhs(tau: float, y: np.ndarray) -> tuple[float, float]:
             return y[1], self._inrun_xdd(tau, y[0], y[1])
 
@@ -288,6 +293,8 @@ class JumpMotion:
         )
 
     def _solve_flight(self, cla: float, dense: bool) -> tuple[object, float]:
+        from scipy.integrate import solve_ivp
+
         def rhs(tau: float, y: np.ndarray) -> tuple[float, ...]:
             return (y[3], y[4], y[5], *self._flight_a(tau, y[3], y[4], y[5], cla))
 
@@ -367,6 +374,8 @@ class JumpMotion:
         tangential force continues the flight's ``x_p''`` (``e0``) and ``x_p'''``
         (``e1``) at the touch-down.
         """
+        from scipy.integrate import solve_ivp
+
         p = self.p
         _, z1, z2 = self.landing.zs(xp0)
         w0 = math.sqrt(1 + z1 * z1)

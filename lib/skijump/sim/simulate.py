@@ -36,13 +36,13 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-from scipy.optimize import brentq
 
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.magfield import reference_field
 from sportfusion.skijump.hillfile import Hill
+from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.skijump.sim.attitude import arm_motion, attitude, mounting
 from sportfusion.skijump.sim.contact import HillGeometry
 from sportfusion.skijump.sim.motion import JumpMotion, MotionParams, MotionTruth
@@ -60,7 +60,7 @@ class SkiJumpConfig:
     seed: int = 0
     distance: float | None = None  # wanted jump length [m]; default: drawn near the K point
     gate: int | None = None  # start gate (1 = lowest); default: chosen for the distance
-    start: str = "2026-01-05T13:00:00Z"  # UTC time of t = 0
+    start: str = DEFAULT_START  # UTC time of t = 0
     rest_before: float = 5.0  # standing at the gate [s]
     rest_after: float = 3.0  # standing after the stop [s]
     # white noise, Tables 4-5
@@ -164,6 +164,8 @@ def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) ->
     area gives about the distance; the lift area is then solved within
     :data:`LIFT_RANGE`.
     """
+    from scipy.optimize import brentq
+
     n = hill.profile.cert.gates or 2
 
     def motion(g: float) -> JumpMotion:

@@ -1,0 +1,70 @@
+"""Start-up cost as a property: importing a command's module loads none of the heavy libraries.
+
+``--help`` and a no-op stage should cost about ``import numpy, pyarrow``; numba (and its cached
+kernels), scipy's signal/optimize/linalg/..., OpenCV, matplotlib and pyproj are imported where a
+command body uses them.  This checks the property (which modules are loaded), never a time.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import sportfusion.tools
+
+HEAVY = (
+    "numba",
+    "llvmlite",
+    "scipy.signal",
+    "scipy.optimize",
+    "scipy.linalg",
+    "scipy.ndimage",
+    "scipy.interpolate",
+    "scipy.integrate",
+    "scipy.sparse",
+    "scipy.spatial",
+    "cv2",
+    "matplotlib",
+    "pyproj",
+)
+
+TOOLS = sorted(p.stem for p in Path(sportfusion.tools.__file__).parent.glob("*.py") if not p.stem.startswith("_"))
+
+PROBE = """
+import importlib, json, sys
+heavy = {heavy!r}
+out = {{}}
+for name in {tools!r}:
+    importlib.import_module("sportfusion.tools." + name)
+    out[name] = sorted(m for m in heavy if m in sys.modules)
+print(json.dumps(out))
+"""
+
+
+def test_every_tool_is_listed() -> None:
+    assert len(TOOLS) >= 15 and "rts_smooth" in TOOLS and "simulate" in TOOLS
+
+
+def test_tool_modules_import_no_heavy_library() -> None:
+    # one fresh interpreter, tools imported one after another: the first one that pulls a heavy
+    # module in is named (later ones would inherit it, so the first non-empty entry is the culprit)
+    res = subprocess.run(
+        [sys.executable, "-c", PROBE.format(heavy=HEAVY, tools=TOOLS)], capture_output=True, text=True, check=True
+    )
+    loaded = json.loads(res.stdout)
+    assert set(loaded) == set(TOOLS)
+    culprits = {name: mods for name, mods in loaded.items() if mods}
+    assert not culprits, f"importing these tool modules loads heavy modules: {culprits}"
+
+
+def test_probe_detects_a_heavy_import() -> None:
+    # the probe itself can fail: importing a module that needs scipy.linalg is seen
+    res = subprocess.run(
+        [sys.executable, "-c", "import sys, scipy.linalg; print('scipy.linalg' in sys.modules)"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert res.stdout.strip() == "True"
