@@ -23,6 +23,11 @@ SENSORS = {
 }
 
 
+def ms_to_kmh(v: float) -> float:
+    """A speed [m/s] in km/h, for human summaries that print both."""
+    return float(v) * 3.6
+
+
 def sensor_rates(table: pa.Table) -> list[dict[str, Any]]:
     """Per-sensor sample count, time span [s] and median rate [Hz].
 
