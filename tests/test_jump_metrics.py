@@ -66,6 +66,9 @@ def test_metrics_of_the_true_trajectory_match_the_simulator():
     clear = schema.floats(truth, "true_clearance")
     assert np.nanmax(clear) - 1e-6 <= row["max_height"] < 6.0
     assert jmeta["jump_length"] == [row["jump_length"]]
+    # the one-line summary: numbered from 1, km/h beside m/s
+    v = row["takeoff_speed"]
+    assert msg == f"jump 1: {row['jump_length']:.1f} m, {v:.1f} m/s ({v * 3.6:.1f} km/h)"
 
 
 def test_events_outside_the_estimate_are_refused():
