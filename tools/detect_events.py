@@ -89,6 +89,11 @@ def kind_from_meta(meta: dict[str, Any]) -> tuple[str, str] | None:
 
 @tool(
     "detect-events",
+    cites=(
+        "skijump",
+        "climbing",
+        "gates",
+    ),
     example="""
   simulate boulder --seed 1 --holds holds.parquet | detect-events --kind grips > trial.parquet
   detect-events --kind grips --window 17 --threshold 0.5 hand.parquet -o hand_grips.parquet

@@ -29,6 +29,7 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
 
 @tool(
     "evaluate",
+    cites=("skijump",),
     writes_table=False,
     example="""
   simulate skijump --seed 1 --truth truth.parquet | gps2hill --hill oberstdorf_hs106 \\

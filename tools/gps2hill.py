@@ -12,6 +12,7 @@ from sportfusion.tools._options import hill_options, load_hill_option, parse_flo
 
 @tool(
     "gps2hill",
+    cites=("skijump",),
     example="""
   ingest run.zip track.nmea | gps2hill --hill oberstdorf_hs106 > session.parquet
   gps2hill session.parquet --hill my_hill.toml --hill-set height=951.2 -o hill.parquet

@@ -16,6 +16,7 @@ from sportfusion.tools._options import parse_pairs
 
 @tool(
     "ingest",
+    cites=("climbing",),
     reads_table=False,
     example="""
   ingest phyphox_export.zip > session.parquet

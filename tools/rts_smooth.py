@@ -25,6 +25,7 @@ def _times(text: str | None, option: str) -> list[float] | None:
 
 @tool(
     "rts-smooth",
+    cites=("skijump",),
     example="""
   simulate skijump --seed 1 | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > smooth.parquet
   rts-smooth jump.parquet --hill my_hill.toml --takeoff 12.34 --touchdown 15.61 -o smooth.parquet

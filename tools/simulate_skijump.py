@@ -15,6 +15,7 @@ DEFAULT_HILL = "oberstdorf_hs106"
 
 @tool(
     "simulate skijump",
+    cites=("skijump",),
     reads_table=False,
     example="""
   simulate skijump --seed 1 --truth truth.parquet > session.parquet
