@@ -48,7 +48,8 @@ class _DefaultMeasure(Group):
 @click.group(
     name="video-jumplength",
     cls=_DefaultMeasure,
-    epilog=papers_epilog(("skijump",)) + "\b\nExample:\n  video-jumplength landing.mp4 --markers landing.markers.csv > jumps.parquet\n"
+    epilog=papers_epilog(("skijump",))
+    + "\b\nExample:\n  video-jumplength landing.mp4 --markers landing.markers.csv > jumps.parquet\n"
     "  video-jumplength calibrate landing.mp4 -o grid.png",
 )
 @click.version_option(
