@@ -6,6 +6,7 @@ import click
 
 from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, gnss_to_frame
 from sportfusion.core.schema import require_columns
+from sportfusion.skijump.hillfile import hill_from_meta
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
 
@@ -53,12 +54,19 @@ def main(
     [m]; rows without a fix stay null.  Sigmas carry over as std_gnss_x/y/z
     [m] (north/east sigmas rotated by the azimuth; gnss_sigma_h per axis;
     gnss_sigma_v to z).  vel_n vel_e vel_d stay NED, untouched.  The frame
-    (and the hill with --hill) is written into the metadata."""
+    (and the hill with --hill) is written into the metadata.  Without --hill
+    and --origin the hill named in the session's metadata is used; a session
+    that names none is refused."""
     table, meta = tool.read()
     require_columns(table, GNSS_COLUMNS, "gps2hill (WGS84 latitude, longitude, ellipsoidal height)")
     the_hill = load_hill_option(hill, hill_set)
+    if the_hill is None and origin is None and (meta.get("hill") or {}).get("spec"):
+        the_hill = hill_from_meta(meta)  # the session already names its hill (simulate, an earlier gps2hill)
+        tool.info(f"--hill {the_hill.spec}: the session's hill")
     if the_hill is None and origin is None:
-        raise click.UsageError("give --hill NAME|FILE.toml or --origin LAT,LON,H (with --azimuth DEG)")
+        raise click.UsageError(
+            "give --hill NAME|FILE.toml or --origin LAT,LON,H (with --azimuth DEG); the session names no hill"
+        )
     if origin is not None:
         lat, lon, h = parse_floats(origin, 3, "--origin")
         az = azimuth if azimuth is not None else (the_hill.site.get("azimuth_deg", 0.0) if the_hill else 0.0)

@@ -77,9 +77,8 @@ from sportfusion.tools._options import parse_pairs
 @click.option(
     "--hand",
     type=click.Choice(["lefthand", "righthand"]),
-    default="lefthand",
-    show_default=True,
-    help="Bouldering dataset trial: which hand's IMU file.",
+    default=None,
+    help="Bouldering dataset trial: which hand's IMU file; default: the trial's only one (required when it has both).",
 )
 @click.option(
     "--hold-map",
@@ -111,7 +110,7 @@ def main(
     mapping: tuple[str, ...],
     time_unit: str,
     units: tuple[str, ...],
-    hand: str,
+    hand: str | None,
     hold_map: str | None,
     map_up: str,
     holds_out: str | None,

@@ -114,6 +114,14 @@ def read(path: Path, opts: Options) -> Recording:
         if m:
             hand = m.group(1)
         trial = path.parent
+    if not hand:  # no --hand: the trial's only hand, else ask (a trial usually has both)
+        hands = sorted(m.group(1) for p in trial.glob("imu_*.csv") if (m := _IMU.match(p.name)))
+        if len(hands) != 1:
+            raise InputError(
+                f"{trial}: {' and '.join(f'imu_{h}.csv' for h in hands) or 'no imu_<hand>.csv'}; "
+                "choose the hand with --hand lefthand or --hand righthand"
+            )
+        hand = hands[0]
     imu = trial / f"imu_{hand}.csv"
     if not imu.is_file():
         have = ", ".join(sorted(p.name for p in trial.glob("imu_*.csv"))) or "none"
