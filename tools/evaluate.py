@@ -126,15 +126,16 @@ def main(
         _jump_lengths(tool, video_path, reading_accuracy, fmt, output)
         return
     est, est_meta = tool.read(kind=("session", "jumps"))
+    if est_meta["kind"] == "session":
+        check_estimate(est, gnss)
+    elif gnss:
+        raise click.UsageError("--gnss evaluates a session's GNSS columns; the input is a jumps table")
     if truth_path is None:
         raise click.UsageError("--truth FILE is required: the truth table written by simulate --truth")
     truth, truth_meta = sfio.read_table(truth_path, kind="truth", what=f"truth file {truth_path}")
     if est_meta["kind"] == "jumps":
-        if gnss:
-            raise click.UsageError("--gnss evaluates a session's GNSS columns; the input is a jumps table")
         _jumps_vs_truth(tool, est, est_meta, truth_path, truth_meta, fmt, output, max_event_dt)
         return
-    check_estimate(est, gnss)
     ev = evaluate(est, est_meta, truth, truth_meta, gnss=gnss, max_event_dt=max_event_dt)
     if fmt == "text":
         what = "GNSS measurements" if gnss else "estimate"
