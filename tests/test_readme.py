@@ -112,3 +112,11 @@ def test_the_contract_doc_agrees_with_the_column_registry():
             assert col.unit == cells[1], (name, col.unit, cells[1])
             checked += 1
     assert checked > 40
+
+
+def test_library_and_tool_docs_point_into_the_project():
+    """Docstrings and help name docs/ files, never the development folder users do not have."""
+    for path in [*(ROOT / "lib").rglob("*.py"), *(ROOT / "tools").glob("*.py")]:
+        text = path.read_text()
+        for bad in ("shared/ref", "DESIGN.md", "papers-errata"):
+            assert bad not in text, (str(path.relative_to(ROOT)), bad)

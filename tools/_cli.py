@@ -1,7 +1,7 @@
 """The command-line frame every sportfusion tool shares.
 
 ``@tool(name, example=...)`` turns a function into a click command with the
-common behaviour of DESIGN.md: INPUT defaults to stdin, ``-o FILE``, ``-v``,
+common behaviour of every command (README, "The tools"): INPUT defaults to stdin, ``-o FILE``, ``-v``,
 ``-q``, ``--version``; a terminal on stdin or stdout is refused (exit 2); bad
 data exits 1 with one line ``Error: <tool>: ...`` and nothing on stdout; a
 closed pipe downstream is quiet.  The function receives a :class:`Tool` as its

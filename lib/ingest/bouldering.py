@@ -1,6 +1,6 @@
 """One hand of a trial of the bouldering dataset layout (Koller, Laue, Frese), and its hold map.
 
-Layout (``shared/ref/formats.md``)::
+Layout (``docs/formats.md``)::
 
     <dataset>/data_set.json                       magnet_in_art_V01, _V02: field vector, mocap frame
     <dataset>/P01/V01/trials/T1/trial_data.json   TrackID, start_time, end_time, descent_time,
