@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+from typing import Any
 
 import click
+import pyarrow as pa
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
@@ -152,7 +154,16 @@ def main(
     tool.write(summary_table(ev), meta)
 
 
-def _jumps_vs_truth(tool, est, est_meta, truth_path, truth_meta, fmt, output, max_event_dt) -> None:  # noqa: ANN001
+def _jumps_vs_truth(
+    tool: Tool,
+    est: pa.Table,
+    est_meta: dict[str, Any],
+    truth_path: str,
+    truth_meta: dict[str, Any],
+    fmt: str,
+    output: str | None,
+    max_event_dt: float,
+) -> None:
     """``jump-metrics ... | evaluate --truth``: per-jump figure errors against the simulated truth."""
     cmp = compare_jumps(est, truth_meta, max_event_dt)
     if fmt == "text":
