@@ -12,20 +12,30 @@ DEMO ?= demo-out
 SESSIONS ?= sessions
 BATCH ?= batch-out
 
-.PHONY: all test test-fast lint format demo bench fixtures clean batch
+.PHONY: all test test-fast lint format demo bench fixtures clean batch cluster-batch
 
 all: test
 
 $(STAMP): pyproject.toml
 	@echo "installing dependencies into $(VENV), about a minute (newest versions pyproject.toml allows)"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'
 	touch $@
 
-test: $(STAMP)
+# the report's browser test runs Debian's Chromium and ChromeDriver (installed here when missing)
+BROWSER := $(VENV)/.browser
+$(BROWSER): | $(STAMP)
+	@if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null; then \
+	  echo "installing Debian's chromium and chromium-driver for the report's browser test, about a minute"; \
+	  SUDO=$$([ "$$(id -u)" = 0 ] || echo sudo); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium chromium-driver >/dev/null; \
+	fi
+	touch $@
+
+test: $(STAMP) $(BROWSER)
 	$(BIN)/python -m pytest -q
 
-test-fast: $(STAMP)
+test-fast: $(STAMP) $(BROWSER)
 	$(BIN)/python -m pytest -q -m "not slow"
 
 lint: $(STAMP)
@@ -52,6 +62,7 @@ demo: $(STAMP)
 	for f in $(DEMO)/*/evaluation.txt $(DEMO)/*/table7.txt; do [ -f "$$f" ] || continue; \
 	  echo "== $$f"; head -n 6 "$$f"; done
 	@echo "plots: $(DEMO)/plots/"; ls $(DEMO)/plots
+	@echo "pages for people (open in a browser): $(DEMO)/index.html, $(DEMO)/<sport>/report.html"
 
 # a sessions folder (one sub-folder per session with config.mk), N jobs: make batch SESSIONS=dir JOBS=2
 JOBS ?= 2
@@ -64,8 +75,20 @@ endif
 batch: $(STAMP)
 	$(MAKE) --no-print-directory -j $(JOBS) -f pipelines/batch.mk SESSIONS=$(SESSIONS) OUT=$(BATCH)
 
+# the same batch through Snakemake (the `cluster` extra): locally on JOBS cores, or with PROFILE on a
+# scheduler (pipelines/profiles/slurm is an example); RETRY_FAILED=1 also redoes the sessions that failed
+PROFILE ?=
+RETRY_FAILED ?=
+cluster-batch: $(STAMP)
+	@test -d "$(SESSIONS)" || { echo "cluster-batch: no sessions folder '$(SESSIONS)': pass SESSIONS=dir (one sub-folder per session with its config.mk) and BATCH=out"; exit 2; }
+	@if [ -n "$(RETRY_FAILED)" ]; then for e in $(BATCH)/*/error; do [ -e "$$e" ] && rm -f "$${e%error}.done"; done; true; fi
+	$(BIN)/snakemake -s pipelines/Snakefile -d $(abspath $(BATCH)) --quiet rules \
+	  --config sessions=$(abspath $(SESSIONS)) out=$(abspath $(BATCH)) bin=$(abspath $(BIN))/ \
+	  $(if $(PROFILE),--profile $(PROFILE),--cores $(JOBS) --keep-going)
+	@n=$$(ls $(BATCH)/*/error 2>/dev/null | wc -l); [ "$$n" -eq 0 ] || { echo "cluster-batch: $$n session(s) failed, listed in $(BATCH)/summary.txt"; exit 1; }
+
 bench: $(STAMP)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,bench]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster,bench]'
 	$(BIN)/python bench/report.py -o bench-report.md
 
 clean:

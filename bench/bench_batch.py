@@ -99,10 +99,42 @@ def run(sessions: Path, out: Path, jobs: int) -> tuple[float, str]:
     return time.perf_counter() - start, res.stdout
 
 
+def run_snakemake(sessions: Path, out: Path, jobs: int) -> tuple[float, str]:
+    """The same batch through pipelines/Snakefile (Snakemake, local executor, ``jobs`` cores)."""
+    shutil.rmtree(out, ignore_errors=True)
+    bindir = Path(sys.executable).parent
+    start = time.perf_counter()
+    res = subprocess.run(
+        [
+            str(bindir / "snakemake"),
+            "-s",
+            str(ROOT / "pipelines" / "Snakefile"),
+            "-d",
+            str(out),
+            "--cores",
+            str(jobs),
+            "--keep-going",
+            "--quiet",
+            "all",
+            "--config",
+            f"sessions={sessions}",
+            f"out={out}",
+            f"bin={bindir}/",
+            "target=results evaluation",
+        ],
+        capture_output=True,
+        text=True,
+    )
+    return time.perf_counter() - start, (out / "summary.txt").read_text() if (
+        out / "summary.txt"
+    ).exists() else res.stderr
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=100, help="sessions [count]")
     ap.add_argument("--keep", type=Path, default=None, help="keep the sessions and outputs in this folder")
+    ap.add_argument("--no-j1", action="store_true", help="skip the make -j 1 run (engines side by side only)")
     args = ap.parse_args()
     tmp = Path(args.keep or tempfile.mkdtemp(prefix="sf-batch-"))
     sessions = tmp / "sessions"
@@ -110,15 +142,25 @@ def main() -> None:
     t0 = time.perf_counter()
     make_sessions(sessions, args.n)
     print(f"{args.n} simulated climbing sessions written in {time.perf_counter() - t0:.0f} s (one corrupt)")
-    t1, _ = run(sessions, tmp / "out-j1", 1)
+    t1 = float("nan") if args.no_j1 else run(sessions, tmp / "out-j1", 1)[0]
     t2, report = run(sessions, tmp / "out-j2", 2)
+    have_snakemake = (Path(sys.executable).parent / "snakemake").exists()
+    ts, sreport = run_snakemake(sessions, tmp / "out-sm2", 2) if have_snakemake else (float("nan"), "")
     summary = report[report.find("session ") :] if "session " in report else report
     tail = [ln for ln in summary.splitlines() if "sessions ok" in ln or "FAILED " in ln]
     print("\n".join(tail))
     print(f"\n{'jobs':>5} {'wall [s]':>9} {'per session [s]':>16}")
     print(f"{1:>5} {t1:9.1f} {t1 / args.n:16.2f}")
     print(f"{2:>5} {t2:9.1f} {t2 / args.n:16.2f}")
+    print(f"{'2 sm':>5} {ts:9.1f} {ts / args.n:16.2f}   (Snakemake, pipelines/Snakefile, --cores 2)")
     print(f"speed-up make -j 2 vs -j 1: {t1 / t2:.2f}x (ideal 2.00x on {os.cpu_count()} cores)")
+    if have_snakemake:
+        ok = [ln for ln in sreport.splitlines() if "sessions ok" in ln]
+        print(
+            f"Snakemake --cores 2 vs make -j 2: {ts / t2:.2f}x the time (target <= 1.10); {ok[0] if ok else sreport[-200:]}"
+        )
+    else:
+        print("Snakemake: not installed (pip install -e '.[cluster]')")
     print(f"this machine's ceiling, two pure-Python CPU-bound processes: {cpu_ceiling():.2f}x")
     if args.keep is None:
         shutil.rmtree(tmp, ignore_errors=True)

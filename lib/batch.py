@@ -2,8 +2,9 @@
 
 ``pipelines/batch.mk`` runs ``pipelines/session.mk`` for every ``SESSIONS/<name>/config.mk`` into
 ``OUT/<name>/`` (with ``make -k -j N``: one bad session does not stop the others) and then
-``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy
-and a readable table, listing each failed session with its error line.
+``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy,
+a readable table listing each failed session with its error line, and ``OUT/index.html`` (the batch's
+page for people, linking each session's ``report.html``).
 """
 
 from __future__ import annotations
@@ -23,7 +24,19 @@ from sportfusion.core import schema
 from sportfusion.core.describe import ms_to_kmh
 from sportfusion.core.errors import InputError
 
-__all__ = ["read_config", "session_row", "collect", "summary_table", "format_summary", "main"]
+__all__ = [
+    "read_config",
+    "session_inputs",
+    "session_resources",
+    "session_row",
+    "collect",
+    "summary_table",
+    "format_summary",
+    "main",
+]
+
+#: config.mk keys that name a session's input files (RAW may list several).
+INPUT_KEYS = ("RAW", "TRUTH", "GATES", "HOLDS", "VIDEO", "MARKERS")
 
 #: Result table of each sport (the pipeline's last stage), relative to the session's OUT folder.
 RESULTS = {
@@ -57,6 +70,48 @@ def read_config(path: Path) -> dict[str, str]:
         if m:
             out[m.group(1)] = m.group(2)
     return out
+
+
+def session_inputs(session: Path) -> list[str]:
+    """The files a session's pipeline reads: its ``config.mk`` and every file the config names.
+
+    Files named by :data:`INPUT_KEYS` that do not exist are left out here (the pipeline itself then fails
+    with its own error line for that session, which the batch reports), so one broken session never
+    stops the workflow engine from scheduling the others.
+    """
+    session = Path(session)
+    cfg = session / "config.mk"
+    files = [str(cfg)]
+    if cfg.exists():
+        values = read_config(cfg)
+        for key in INPUT_KEYS:
+            for name in values.get(key, "").split():
+                f = session / name
+                if f.is_file():
+                    files.append(str(f))
+    return files
+
+
+def session_resources(input_files: Any, attempt: int = 1) -> dict[str, int]:
+    """Resources to ask a scheduler for one session job: memory [MB] and run time [min].
+
+    Sized by the session's length through the total size of its input files (``S`` MB): the whole
+    per-session pipeline peaks below ~8 KB of memory per IMU step and a raw MB holds roughly 10-20 k
+    samples, so ``mem_mb = 1000 + 200 S`` (doubled on a retry) and ``runtime = 10 + 2 S`` minutes cover
+    every sport with room (a 60 k-step ski-jump day is ~5 MB of raw files: 2 GB, 20 min).
+
+    Parameters
+    ----------
+    input_files : iterable of str or an object with ``size_mb``
+        The session's input files (:func:`session_inputs`), or Snakemake's ``input``.
+    attempt : int
+        1 for the first try, 2 for the first retry, ...
+    """
+    size = getattr(input_files, "size_mb", None)
+    if size is None:
+        size = sum(Path(f).stat().st_size for f in input_files if Path(f).exists()) / 1e6
+    mem = int(1000 + 200 * float(size))
+    return {"mem_mb": mem * (2 if attempt > 1 else 1), "runtime": int(10 + 2 * float(size))}
 
 
 def _floats(table: pa.Table, name: str) -> np.ndarray | None:
@@ -195,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m sportfusion.batch", description=main.__doc__)
     ap.add_argument("out", type=Path, help="batch output folder (one sub-folder per session)")
     ap.add_argument("--sessions", type=Path, required=True, help="sessions folder (one sub-folder per session)")
+    ap.add_argument("--engine", default="make", help="what ran the sessions, for the provenance (e.g. 'snakemake 9.1')")
+    ap.add_argument("--engine-params", default="", help="the engine's settings, for the provenance (free text)")
     args = ap.parse_args(argv)
     try:
         rows = collect(args.sessions, args.out)
@@ -203,12 +260,28 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     table = summary_table(rows)
     args.out.mkdir(parents=True, exist_ok=True)
-    sfio.write_bytes(sfio.table_to_bytes(table, sfmeta.new_meta("summary")), args.out / "summary.parquet")
+    meta = sfmeta.add_provenance(
+        sfmeta.new_meta("summary"),
+        "batch",
+        {
+            "engine": args.engine,
+            "engine_params": args.engine_params,
+            "sessions": str(args.sessions),
+            "ok": sum(r["status"] == "ok" for r in rows),
+            "failed": sum(r["status"] != "ok" for r in rows),
+        },
+    )
+    sfio.write_bytes(sfio.table_to_bytes(table, meta), args.out / "summary.parquet")
     import pyarrow.csv as pacsv
 
     pacsv.write_csv(table, args.out / "summary.csv")
     text = format_summary(rows)
     (args.out / "summary.txt").write_text(text + "\n")
+    from sportfusion.report.batch import batch_index, session_pages
+
+    names = [r["session"] for r in rows]
+    index = batch_index(table, session_pages(args.out, names), f"Batch report: {args.sessions.name}")
+    sfio.write_bytes(index.encode("utf-8"), args.out / "index.html")
     print(text)
     return 0 if all(r["status"] == "ok" for r in rows) else 1
 

@@ -1,6 +1,6 @@
 # One session, raw recordings -> results. Each stage is a file, so `make` redoes only what changed.
 #
-#   make -f pipelines/session.mk SESSION=fixtures/skijump OUT=out/skijump [results|plots|evaluation]
+#   make -f pipelines/session.mk SESSION=fixtures/skijump OUT=out/skijump [results|plots|evaluation|report]
 #
 # SESSION is a folder with a `config.mk` naming the sport and the venue, and the raw files it lists:
 #   SPORT   = skijump | skirace | gates | climbing
@@ -33,8 +33,8 @@ TRUTHFILE := $(if $(TRUTH),$(S)/$(TRUTH))
 # a RAW that is already a session table (a simulated one) skips ingest
 INGEST := $(if $(filter %.parquet,$(RAW)),cat $(RAWFILES),$(BIN)ingest $(Q) $(RAWFILES))
 
-.PHONY: results plots evaluation all
-all: results plots evaluation
+.PHONY: results plots evaluation report all
+all: results plots evaluation report
 
 $(O)/.dir:
 	mkdir -p $(O)/plots && touch $@
@@ -44,6 +44,7 @@ ifeq ($(SPORT),skijump)
 results: $(O)/jumps.parquet $(if $(VIDEO),$(O)/table7.txt)
 plots: $(O)/plots/speed.png $(O)/plots/series.png $(O)/plots/mag.png $(O)/plots/track.png $(if $(TRUTH),$(O)/plots/errors.png)
 evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet $(O)/evaluation_gnss.txt)
+report: $(O)/report.html
 
 # cheap stages piped: raw files -> one session in the hill frame with take-off/touch-down events
 $(O)/events.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
@@ -62,6 +63,8 @@ $(O)/evaluation.parquet: $(O)/smoothed.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) -o $@
 $(O)/evaluation_gnss.txt: $(O)/events.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) --gnss --format text -o $@
+$(O)/report.html: $(O)/smoothed.parquet $(O)/jumps.parquet $(if $(TRUTH),$(O)/evaluation.parquet)
+	$(BIN)report $(Q) $< --jumps $(O)/jumps.parquet $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/speed.png: $(O)/smoothed.parquet
 	$(BIN)plot speed $(Q) $< -o $@
 $(O)/plots/series.png: $(O)/smoothed.parquet
@@ -79,6 +82,7 @@ ifeq ($(SPORT),skirace)
 results: $(O)/attitude.parquet
 plots: $(O)/plots/spline.png $(O)/plots/series.png
 evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+report: $(O)/report.html
 
 $(O)/spline.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) | $(BIN)gps2hill $(Q) --origin $(ORIGIN) --azimuth $(AZIMUTH) \
@@ -89,6 +93,8 @@ $(O)/evaluation.txt: $(O)/attitude.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) --format text -o $@
 $(O)/evaluation.parquet: $(O)/attitude.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) -o $@
+$(O)/report.html: $(O)/attitude.parquet $(if $(TRUTH),$(O)/evaluation.parquet)
+	$(BIN)report $(Q) $< $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/spline.png: $(O)/attitude.parquet
 	$(BIN)plot spline $(Q) $< $(if $(TRUTH),--truth $(TRUTHFILE)) -o $@
 $(O)/plots/series.png: $(O)/attitude.parquet
@@ -100,6 +106,7 @@ ifeq ($(SPORT),gates)
 results: $(O)/anchored.parquet
 plots: $(O)/plots/course.png $(O)/plots/series.png
 evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+report: $(O)/report.html
 
 $(O)/crossings.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) | $(BIN)detect-events $(Q) --kind gates -o $@
@@ -109,6 +116,8 @@ $(O)/evaluation.txt: $(O)/anchored.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) --format text -o $@
 $(O)/evaluation.parquet: $(O)/anchored.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) -o $@
+$(O)/report.html: $(O)/anchored.parquet $(S)/$(GATES) $(if $(TRUTH),$(O)/evaluation.parquet)
+	$(BIN)report $(Q) $< --gates $(S)/$(GATES) $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/course.png: $(O)/anchored.parquet $(S)/$(GATES)
 	$(BIN)plot gates $(Q) $< --gates $(S)/$(GATES) -o $@
 $(O)/plots/series.png: $(O)/anchored.parquet
@@ -120,6 +129,7 @@ ifeq ($(SPORT),climbing)
 results: $(O)/holds.parquet
 plots: $(O)/plots/holds.png
 evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+report: $(O)/report.html
 
 $(O)/grips.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) | $(BIN)detect-events $(Q) --kind grips -o $@
@@ -129,6 +139,8 @@ $(O)/evaluation.txt: $(O)/holds.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) --format text -o $@
 $(O)/evaluation.parquet: $(O)/holds.parquet $(TRUTHFILE)
 	$(BIN)evaluate $(Q) $< --truth $(TRUTHFILE) -o $@
+$(O)/report.html: $(O)/holds.parquet $(S)/$(HOLDS) $(if $(TRUTH),$(O)/evaluation.parquet)
+	$(BIN)report $(Q) $< --holds $(S)/$(HOLDS) $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/holds.png: $(O)/holds.parquet $(S)/$(HOLDS)
 	$(BIN)plot holds $(Q) $< --holds $(S)/$(HOLDS) $(if $(TRUTH),--truth $(TRUTHFILE)) -o $@
 endif

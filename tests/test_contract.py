@@ -142,6 +142,8 @@ EXTRA: dict[str, list[str]] = {
     "plot gates": ["-o", _PNG, "--gates", str(_FIX / "skijump" / "truth.parquet")],
     "plot holds": ["-o", _PNG, "--holds", str(_FIX / "skijump" / "truth.parquet")],
     "plot compare": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract-compare.png")],
+    # report writes an HTML page
+    "report": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract-report.html")],
 }
 
 

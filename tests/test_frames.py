@@ -130,7 +130,13 @@ def test_normal_gravity_check_values() -> None:
 def test_frame_meta_round_trip_and_validation() -> None:
     f = Frame(*ORIGIN, PSI, "hill")
     m = f.to_meta()
-    assert m == {"name": "hill", "origin": list(ORIGIN), "azimuth_deg": PSI, "axes": "x forward, y right, z down"}
+    assert m == {
+        "name": "hill",
+        "origin": list(ORIGIN),
+        "azimuth_deg": PSI,
+        "axes": "x forward, y right, z down",
+        "height_ref": "ellipsoidal",  # issue 15: the frame says what its heights rest on
+    }
     assert Frame.from_meta(m) == f
     x, y, z = f.from_geodetic(*f.to_geodetic(12.0, -3.0, 40.0))
     assert (x, y, z) == pytest.approx((12.0, -3.0, 40.0), abs=1e-6)
@@ -187,7 +193,8 @@ def test_gnss_to_frame_meta_and_frame_conflict() -> None:
     meta = sfmeta.new_meta("session", 1.7e9)
     t = _gnss_table(vel_n=np.arange(6.0))
     out, m = gnss_to_frame(t, meta, f, hill_meta={"name": "X"})
-    assert m["frame"] == f.to_meta() and m["hill"] == {"name": "X"}
+    assert {k: m["frame"][k] for k in f.to_meta()} == f.to_meta() and m["hill"] == {"name": "X"}
+    assert m["frame"]["gnss_z_ref"] == "ellipsoidal" and "geoid_offset_m" not in m["frame"]
     assert out.column("vel_n").to_pylist() == t.column("vel_n").to_pylist()
     assert out.column_names[: t.num_columns] == t.column_names
     est = t.append_column("x", pa.array(np.zeros(6)))

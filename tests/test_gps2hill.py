@@ -101,7 +101,10 @@ def test_hill_frame_against_pymap3d_and_round_trip() -> None:
         "origin": list(ORIGIN),
         "azimuth_deg": PSI,
         "axes": "x forward, y right, z down",
+        "height_ref": "ellipsoidal",  # issue 15: the heights the frame and gnss_z rest on
+        "gnss_z_ref": "ellipsoidal",
     }
+    assert table.schema.field("gnss_z").metadata[b"height_ref"] == b"ellipsoidal"
     assert meta["hill"]["name"] == "Oberstdorf HS106" and meta["hill"]["certificate"]["w"] == 95.0
     assert meta["provenance"][-1]["tool"] == "gps2hill"
     assert meta["provenance"][-1]["params"]["hill"] == "oberstdorf_hs106"
@@ -211,3 +214,136 @@ def test_community_hills_with_an_origin(hill: str) -> None:
     assert r.returncode == 0, r.stderr.decode()
     _, m = _read(r.stdout)
     assert m["frame"]["name"] == "hill" and m["hill"]["source"] == "community data (Open-Ski-Jumping, MIT)"
+
+
+# --- tracks without an ellipsoidal height (issue 15, item 2) ---------------------------------------------
+
+GEOID_N = 47.9  # geoid separation used to write the MSL tracks below [m]
+
+
+def _track(heights: str, n: int = 30) -> tuple[bytes, dict[str, np.ndarray]]:
+    """A 1.5 km track near the HS106 take-off edge: heights 'ellipsoidal', 'msl', 'mixed' or 'none'."""
+    k = np.arange(n, dtype=float)
+    ned_n, ned_e, ned_d = 40.0 * k, 25.0 * k - 300.0, 3.0 * k - 60.0
+    lat, lon, h = (np.asarray(v) for v in pymap3d.ned2geodetic(ned_n, ned_e, ned_d, *ORIGIN))
+    cols: dict[str, object] = {"lat": lat, "lon": lon, "gnss_sigma_v": np.full(n, 2.0)}
+    if heights == "ellipsoidal":
+        cols["h"] = h
+    elif heights == "msl":
+        cols["h_msl"] = h - GEOID_N
+    elif heights == "mixed":  # NMEA fixes with and without the GGA separation field
+        cols["h"] = pa.array(h, mask=k % 3 == 0)
+        cols["h_msl"] = h - GEOID_N
+    return session_bytes(cols, n=n), {"lat": lat, "lon": lon, "h": h}
+
+
+def test_msl_only_track_refused_for_a_hill_frame_naming_the_fix() -> None:
+    data, _ = _track("msl")
+    line = _one_error_line(cli(["gps2hill", "--hill", "oberstdorf_hs106"], stdin=data))
+    assert "mean sea level" in line and "--geoid-offset" in line
+    line = _one_error_line(cli(["gps2hill", "--origin", "47.4,10.29,900"], stdin=data))
+    assert "--geoid-offset" in line and "--origin auto" in line
+
+
+def test_msl_track_with_geoid_offset_equals_the_ellipsoidal_track() -> None:
+    ref = cli(["gps2hill", "--hill", "oberstdorf_hs106", "-q"], stdin=_track("ellipsoidal")[0])
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106", "--geoid-offset", str(GEOID_N)], stdin=_track("msl")[0])
+    assert r.returncode == 0, r.stderr.decode()
+    assert f"h = h_msl + {GEOID_N:.2f} m from --geoid-offset" in r.stderr.decode()
+    (a, _), (b, m) = _read(ref.stdout), _read(r.stdout)
+    for c in ("gnss_x", "gnss_y", "gnss_z", "std_gnss_z"):
+        np.testing.assert_allclose(b.column(c).to_numpy(), a.column(c).to_numpy(), atol=1e-6, err_msg=c)
+    assert m["frame"]["geoid_offset_m"] == GEOID_N and m["frame"]["geoid_source"] == "--geoid-offset"
+    assert m["provenance"][-1]["params"]["geoid_offset"] == GEOID_N
+    assert b.schema.field("h_msl").metadata[b"height_ref"] == b"msl"
+
+
+def test_receiver_separation_fills_fixes_without_it() -> None:
+    data, truth = _track("mixed")
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106"], stdin=data)
+    assert r.returncode == 0, r.stderr.decode()
+    assert "from receiver" in r.stderr.decode()
+    table, m = _read(r.stdout)
+    assert table.column("gnss_x").null_count == 0  # every fix placed, also those with h_msl only
+    n_, e_, d_ = pymap3d.geodetic2ned(truth["lat"], truth["lon"], truth["h"], *ORIGIN)
+    np.testing.assert_allclose(table.column("gnss_z").to_numpy(), d_, atol=1e-6)
+    assert m["frame"]["geoid_offset_m"] == pytest.approx(GEOID_N, abs=1e-9)
+
+
+def test_origin_auto_on_an_msl_track_keeps_msl_heights_and_says_so() -> None:
+    data, truth = _track("msl")
+    r = cli(["gps2hill", "--origin", "auto", "--azimuth", "30"], stdin=data)
+    assert r.returncode == 0, r.stderr.decode()
+    assert "heights above mean sea level" in r.stderr.decode()
+    table, m = _read(r.stdout)
+    h0 = truth["h"][0] - GEOID_N
+    assert m["frame"]["origin"] == pytest.approx([truth["lat"][0], truth["lon"][0], h0], abs=1e-12)
+    assert m["frame"]["height_ref"] == "msl" and m["frame"]["gnss_z_ref"] == "msl"
+    assert m["frame"]["name"] == "local"
+    # independent reference: pymap3d's NED about the first fix, on the MSL heights, rotated by eq 31
+    n_, e_, d_ = pymap3d.geodetic2ned(
+        truth["lat"], truth["lon"], truth["h"] - GEOID_N, truth["lat"][0], truth["lon"][0], h0
+    )
+    x, y = _eq31(np.asarray(n_), np.asarray(e_), 30.0)
+    np.testing.assert_allclose(table.column("gnss_x").to_numpy(), x, atol=1e-6)
+    np.testing.assert_allclose(table.column("gnss_y").to_numpy(), y, atol=1e-6)
+    np.testing.assert_allclose(table.column("gnss_z").to_numpy(), d_, atol=1e-6)
+    assert table.column("gnss_x").to_numpy()[0] == pytest.approx(0.0, abs=1e-9)
+    assert table.schema.field("gnss_z").metadata[b"height_ref"] == b"msl"
+
+
+def test_two_d_track_gets_x_y_and_a_null_z() -> None:
+    data, truth = _track("none")
+    r = cli(["gps2hill", "--origin", "auto"], stdin=data)
+    assert r.returncode == 0, r.stderr.decode()
+    assert "2-D" in r.stderr.decode()
+    table, m = _read(r.stdout)
+    assert table.column("gnss_z").null_count == table.num_rows and "std_gnss_z" not in table.column_names
+    assert m["frame"]["height_ref"] == "none" and m["frame"]["origin"][2] == 0.0
+    assert table.schema.field("gnss_z").metadata[b"height_ref"] == b"none"
+    # x/y at height 0: pymap3d at 0 m, and within h/R = 0.015 % of the true horizontal distances at ~950 m
+    n0, e0, _ = pymap3d.geodetic2ned(truth["lat"], truth["lon"], 0.0, truth["lat"][0], truth["lon"][0], 0.0)
+    np.testing.assert_allclose(table.column("gnss_x").to_numpy(), n0, atol=1e-6)
+    np.testing.assert_allclose(table.column("gnss_y").to_numpy(), e0, atol=1e-6)
+    n1, e1, _ = pymap3d.geodetic2ned(
+        truth["lat"], truth["lon"], truth["h"], truth["lat"][0], truth["lon"][0], truth["h"][0]
+    )
+    assert np.hypot(n0[-1], e0[-1]) == pytest.approx(np.hypot(n1[-1], e1[-1]), rel=2e-4)
+    # with a hill: the fixes are placed at the take-off edge's height, z still null
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106", "-q"], stdin=data)
+    table, m = _read(r.stdout)
+    assert m["frame"]["height_ref"] == "ellipsoidal" and m["frame"]["gnss_z_ref"] == "none"
+    assert table.column("gnss_z").null_count == table.num_rows and table.column("gnss_x").null_count == 0
+
+
+def test_geoid_offset_must_be_a_plausible_separation() -> None:
+    data, _ = _track("msl")
+    for bad in ("nan", "inf", "1e300"):
+        r = cli(["gps2hill", "--origin", "auto", "--geoid-offset", bad], stdin=data)
+        assert r.returncode == 2 and r.stdout == b"", bad
+
+
+def test_rows_left_without_a_height_are_counted_not_silent() -> None:
+    # two inputs merged: one with ellipsoidal h, one with MSL heights only and no separation anywhere
+    data, truth = _track("ellipsoidal", n=10)
+    table, meta = _read(data)
+    h = np.array(table.column("h").to_pylist(), dtype=float)
+    h_msl = np.where(np.arange(10) >= 6, h - GEOID_N, np.nan)
+    h[6:] = np.nan
+    mixed = session_bytes(
+        {
+            "lat": truth["lat"],
+            "lon": truth["lon"],
+            "h": pa.array(h, mask=np.isnan(h)),
+            "h_msl": pa.array(h_msl, mask=np.isnan(h_msl)),
+        },
+        n=10,
+    )
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106"], stdin=mixed)
+    assert r.returncode == 0, r.stderr.decode()
+    assert "4 row(s) with lat/lon have no usable height" in r.stderr.decode()
+    assert _read(r.stdout)[0].column("gnss_x").null_count == 4
+    r = cli(["gps2hill", "--hill", "oberstdorf_hs106", "--geoid-offset", str(GEOID_N), "-q"], stdin=mixed)
+    out = _read(r.stdout)[0]
+    n_, e_, d_ = pymap3d.geodetic2ned(truth["lat"], truth["lon"], truth["h"], *ORIGIN)
+    np.testing.assert_allclose(out.column("gnss_z").to_numpy(), d_, atol=1e-6)

@@ -9,11 +9,12 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pytest
 
 from sportfusion.core import io as sfio
 from sportfusion.core.errors import InputError
-from sportfusion.ingest import FORMATS, Options, gpx
+from sportfusion.ingest import FORMATS, Options, combine, gpx
 
 BIN = Path(sys.executable).parent
 
@@ -74,7 +75,8 @@ def test_track_with_times_segments_and_extensions(tmp_path):
     assert s.t.tolist() == [0.0, 0.5, 1.5, 2.0]  # both segments, +01:00 zone converted; the waypoint ignored
     assert col(rec, "lat") == [47.4049, 47.4050, 47.4051, 47.4052]
     assert col(rec, "h_msl") == [912.5, 913.0, None, 914.0]  # missing <ele> -> null
-    assert col(rec, "h") == [None] * 4  # no geoid offset: ellipsoidal h unknown
+    assert "h" not in s.columns  # no geoid offset: ellipsoidal h unknown, so no h column (MSL only)
+    assert col(rec, "label") == ["run"] * 4  # the track's <name>
     assert sum("--geoid-offset" in w for w in rec.warnings) == 1
     assert col(rec, "gnss_fix") == [1, 2, 0, 3]
     assert col(rec, "gnss_sats") == [9] * 4
@@ -119,19 +121,27 @@ def test_identical_times_error(tmp_path):
     assert gpx.read(p, Options(no_time=True)).streams[0].t.tolist() == [0.0, 1.0, 2.0]
 
 
-def test_backwards_time_error_but_exact_repeat_allowed(tmp_path):
+def test_backwards_time_and_exact_repeat_are_read_and_ordered_by_the_merge(tmp_path):
+    # was refused before issue 15: a time stepping back is now ordered by ingest's one policy
     back = [trkpt(1, 2, 5.0, "2026-01-05T13:00:01Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:00Z")]
-    with pytest.raises(InputError, match="track point 1 .* is not later than point 0"):
-        gpx.read(write(tmp_path, [back]), Options())
+    rec = gpx.read(write(tmp_path, [back]), Options())
+    assert rec.streams[0].t.tolist() == [1.0, 0.0]  # absolute time kept: the earliest point is the epoch
+    table, meta, _ = combine([rec])
+    assert table.column("t").to_pylist() == [0.0, 1.0]
+    assert table.column("lat").to_pylist() == [1.1, 1.0]
+    assert meta["sources"][0]["time_order"]["gpx"]["backward_steps"] == 1
     a, b = trkpt(1, 2, 5.0, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, 5.0, "2026-01-05T13:00:01Z")
     rec = gpx.read(write(tmp_path, [[a, b], [b, trkpt(1.2, 2, 5.0, "2026-01-05T13:00:02Z")]]), Options())
     assert rec.streams[0].t.tolist() == [0.0, 1.0, 1.0, 2.0]  # the repeat is folded by the merge
+    table, meta, _ = combine([rec])
+    assert table.num_rows == 3 and meta["sources"][0]["time_order"]["gpx"]["duplicates_dropped"] == 1
 
 
 def test_no_elevation_at_all(tmp_path):
     p = write(tmp_path, [[trkpt(1, 2, None, "2026-01-05T13:00:00Z"), trkpt(1.1, 2, None, "2026-01-05T13:00:01Z")]])
     rec = gpx.read(p, Options(geoid_offset=47.9))
-    assert col(rec, "h") == [None, None] and col(rec, "h_msl") == [None, None]
+    assert "h" not in rec.streams[0].columns and "h_msl" not in rec.streams[0].columns  # a 2-D track
+    assert any("2-D track" in w for w in rec.warnings)
 
 
 def test_routes_only_and_broken_xml(tmp_path):
@@ -171,3 +181,97 @@ def test_ingest_command(tmp_path, force):
     proc = subprocess.run([str(BIN / "ingest"), *force, str(untimed), "--no-time", "-o", str(out)], capture_output=True)
     assert proc.returncode == 0, proc.stderr.decode()
     assert sfio.read_table(out)[0].column("t").to_pylist() == [0.0, 1.0]
+
+
+# --- real-export quirks (issue 15 items 1-2, issue 17) ----------------------------------------------------
+
+
+def _watch_track(n: int = 3000) -> tuple[list[str], list[tuple[float, float, float]]]:
+    """A 1 Hz watch track descending a slope, with one backwards second at point 1500 (its clock hiccups)."""
+    pts, where = [], []
+    for i in range(n):
+        sec = i - 2 if i == 1500 else i  # point 1500 carries the time of point 1498: one step back
+        lat, lon, ele = 47.40 + 8e-5 * i, 10.29 + 5e-5 * np.sin(i / 40.0), 1800.0 - 0.3 * i
+        hh, mm, ss = 9 + sec // 3600, sec // 60 % 60, sec % 60
+        pts.append(trkpt(f"{lat:.7f}", f"{lon:.7f}", f"{ele:.1f}", f"2026-02-01T{hh:02d}:{mm:02d}:{ss:02d}Z"))
+        where.append((lat, lon, ele))
+    return pts, where
+
+
+def test_watch_gpx_with_one_backwards_second_ingests(tmp_path):
+    pts, _ = _watch_track()
+    track = write(tmp_path, [pts], name="watch.gpx")
+    out = tmp_path / "w.parquet"
+    proc = subprocess.run([str(BIN / "ingest"), str(track), "-o", str(out)], capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    err = proc.stderr.decode()
+    info = [ln for ln in err.splitlines() if "rows from" in ln]
+    assert len(info) == 1 and "1 backward steps" in info[0] and "1 same time conflicts" in info[0], err
+    assert "index 1500 at t = 1498.000 s" in err  # the conflicting point is named
+    table, meta = sfio.read_table(out, kind="session")
+    t = table.column("t").to_numpy()
+    assert table.num_rows == 2999 and np.all(np.diff(t) > 0)
+    # the first point at 1498 s (file order) wins; nothing else is lost
+    lat = table.column("lat").to_numpy()
+    assert lat[1498] == pytest.approx(47.40 + 8e-5 * 1498) and lat[1499] == pytest.approx(47.40 + 8e-5 * 1499)
+    order = meta["provenance"][-1]["params"]["time_order"]
+    assert order["backward_steps"] == 1 and order["same_time_conflicts"] == 1 and order["samples"] == 3000
+    assert meta["sources"][0]["time_order"]["gpx"]["reordered"] == 2  # points 1499 and 1500 swapped
+    assert "h" not in table.column_names and table.schema.field("h_msl").metadata[b"height_ref"] == b"msl"
+    # the 3-D length of what was ingested against gpxpy's own length_3d of the file (an independent reader)
+    import gpxpy
+    from pyproj import Geod
+
+    ref = gpxpy.parse(track.read_text()).length_3d()
+    lon = table.column("lon").to_numpy()
+    _, _, d2 = Geod(ellps="WGS84").inv(lon[:-1], lat[:-1], lon[1:], lat[1:])
+    length = np.hypot(d2, np.diff(table.column("h_msl").to_numpy())).sum()
+    assert length == pytest.approx(ref, rel=2e-3)
+
+
+def test_track_names_become_a_label_column(tmp_path):
+    trk = "".join(
+        f"<trk><name>{name}</name><trkseg>"
+        + trkpt(47.4 + j * 1e-3, 10.3, 1000.0, f"2026-02-01T10:00:0{j}Z")
+        + trkpt(47.4 + j * 1e-3 + 5e-4, 10.3, 1000.0, f"2026-02-01T10:00:0{j}.5Z")
+        + "</trkseg></trk>\n"
+        for j, name in enumerate(["Lift", "Downhill", "Hold"])
+    )
+    p = tmp_path / "ski.gpx"
+    p.write_text(HEAD + trk + '<trk><trkseg><trkpt lat="47.41" lon="10.3"><time>2026-02-01T10:00:05Z</time></trkpt>'
+                 "</trkseg></trk></gpx>\n")  # fmt: skip
+    rec = gpx.read(p, Options())
+    assert col(rec, "label") == ["Lift", "Lift", "Downhill", "Downhill", "Hold", "Hold", None]
+    table, _, _ = combine([rec])
+    assert table.schema.field("label").type == pa.string()
+
+
+def test_latitude_out_of_range_is_refused_in_one_line(tmp_path):
+    p = write(
+        tmp_path, [[trkpt(47.0, 10.0, 5.0, "2026-01-05T13:00:00Z"), trkpt(91.5, 10.0, 5.0, "2026-01-05T13:00:01Z")]]
+    )
+    with pytest.raises(InputError, match=r"track point 1 has latitude 91.5.*expected latitude -90..90"):
+        gpx.read(p, Options())
+    proc = subprocess.run([str(BIN / "ingest"), str(p)], capture_output=True, timeout=120)
+    lines = proc.stderr.decode().strip().splitlines()
+    assert proc.returncode == 1 and proc.stdout == b"" and len(lines) == 1 and "latitude 91.5" in lines[0]
+
+
+def test_height_from_vendor_extensions_and_untimed_points_dropped_with_a_warning(tmp_path):
+    ext = "<extensions><app:{0}>{1}</app:{0}></extensions>"
+    seg = [
+        trkpt(47.0, 10.0, None, "2026-01-05T13:00:00Z", ext.format("altitude", 900.0)),  # MSL by convention
+        trkpt(47.0001, 10.0, None, "2026-01-05T13:00:01Z", ext.format("ellipsoidalAltitude", 950.0)),
+        trkpt(47.0002, 10.0, 902.0, None),  # no time: dropped, named
+        trkpt(47.0003, 10.0, 903.0, "2026-01-05T13:00:03Z"),
+    ]
+    p = tmp_path / "phone.gpx"
+    p.write_text(
+        HEAD.replace("<gpx ", '<gpx xmlns:app="urn:x-app" ') + "<trk><trkseg>" + "".join(seg) + "</trkseg></trk></gpx>"
+    )
+    rec = gpx.read(p, Options())
+    assert col(rec, "h_msl") == [900.0, None, 902.0, 903.0]
+    assert col(rec, "h") == [None, 950.0, None, None]
+    table, _, warnings = combine([rec])
+    assert table.num_rows == 3
+    assert any("1 sample(s) without a finite time dropped (first index: 2)" in w for w in warnings)

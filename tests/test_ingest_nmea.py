@@ -98,17 +98,18 @@ def test_gga_without_geoid_separation_and_without_date(tmp_path):
             "GPGGA,120001.0,4807.038,N,01131.000,E,1,08,0.9,545.9,M,,M,,",
         ],
     )
-    rec = nmea.read(p, Options())
-    assert col(rec, "h") == [None, None]
-    assert col(rec, "h_msl") == pytest.approx([545.4, 545.9])
-    sep = [w for w in rec.warnings if "geoid separation" in w]
-    assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
-    # no RMC/ZDA: no absolute time, t = seconds of the UTC day
-    assert rec.epoch_utc is None
-    assert rec.streams[0].t.tolist() == [43200.0, 43201.0]
-    assert any("no date" in w for w in rec.warnings)
+    # no RMC/ZDA: a time of day alone cannot be placed in UTC -> refused, naming --date (issue 17)
+    with pytest.raises(InputError, match=r"no date .*first fix at 12:00:00 UTC.*--date YYYY-MM-DD"):
+        nmea.read(p, Options())
     # the date option places it in UTC
     dated = nmea.read(p, Options(date="2026-01-05"))
+    assert col(dated, "h") == [None, None]
+    assert col(dated, "h_msl") == pytest.approx([545.4, 545.9])
+    sep = [w for w in dated.warnings if "geoid separation" in w]
+    assert len(sep) == 1 and sep[0].startswith("2 fix(es)")
+    with_n = nmea.read(p, Options(date="2026-01-05", geoid_offset=46.9))  # --geoid-offset fills h
+    assert col(with_n, "h") == pytest.approx([545.4 + 46.9, 545.9 + 46.9], abs=1e-9)
+    assert not any("geoid separation" in w for w in with_n.warnings)
     assert dated.epoch_utc == calendar.timegm((2026, 1, 5, 12, 0, 0))
     assert dated.streams[0].t.tolist() == [0.0, 1.0]
     assert not any("no date" in w for w in dated.warnings)
@@ -135,7 +136,7 @@ def test_midnight_rollover(tmp_path):
     # a GGA-only log across midnight keeps counting seconds
     p2 = write(tmp_path, ["GPGGA,235959.5,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,",
                           "GPGGA,000000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"], "b.nmea")  # fmt: skip
-    assert nmea.read(p2, Options()).streams[0].t.tolist() == [86399.5, 86400.0]
+    assert nmea.read(p2, Options(date="2024-12-31")).streams[0].t.tolist() == [0.5, 1.0]  # epoch: whole second
 
 
 def test_decimal_minutes_by_hand():
@@ -237,3 +238,108 @@ def test_vtg_before_its_gga_lands_in_its_own_epoch(tmp_path):
     rec = nmea.read(p, Options(date="2026-01-05"))
     assert col(rec, "gnss_course") == [10.0, 20.0]
     assert col(rec, "gnss_speed") == pytest.approx([KNOT, 2 * KNOT])
+
+
+# --- logs that do not start with NMEA (issue 15 item 3) ---------------------------------------------------
+
+
+def _quirky_log(tmp_path: Path, n_sec: int = 20) -> Path:
+    """A receiver test log: '#' header, 1 Hz GGA/RMC among 40 Hz proprietary $P sentences, AIS, instrument
+    talkers, a logger's time prefix and bytes of an interleaved binary protocol."""
+    out = bytearray()
+    for i in range(120):  # a long comment header: the first 4 KiB hold no sentence at all
+        out += f"# receiver test log, line {i:03d}: firmware 1.2.3, antenna ANT-1, elevation mask 10 deg\r\n".encode()
+    for s in range(n_sec):
+        hms = f"1000{s:02d}.00"
+        lat = f"4724.{2940 + 10 * s:04d}"
+        rmc = sentence(f"GPRMC,{hms},A,{lat},N,01017.6700,E,10.0,90.0,150325,,,A")
+        out += (rmc if s == 8 else rmc + "\r\n").encode()  # second 8: the line break before GGA lost
+        gga = sentence(f"GPGGA,{hms},{lat},N,01017.6700,E,1,09,0.9,912.0,M,47.9,M,,")
+        out += (f"2025-03-15T10:00:{s:02d}.000Z {gga}\r\n" if s == 5 else gga + "\r\n").encode()  # a logger prefix
+        for k in range(40):
+            out += (sentence(f"PUBX,00,{hms},{k},IMU,{0.01 * k:.2f}") + "\r\n").encode()
+        out += (sentence("SDDBT,12.3,f,3.7,M,2.0,F") + "\r\n").encode()  # depth sounder
+        out += (sentence("WIMWV,214.8,R,0.1,K,A") + "\r\n").encode()  # wind instrument
+        out += b"!AIVDM,1,1,,A,13u?etPv2;0n:dDPwUM1U1Cb069D,0*24\r\n"  # AIS (checksum valid)
+        if s % 7 == 3:
+            out += b"\xb5\x62\x01\x07\x5c\x00\x00\xff\x13\x10\x80\xfe\x00"  # binary bytes, then a GGA on that line
+    p = tmp_path / "test.log"
+    p.write_bytes(bytes(out))
+    return p
+
+
+def test_quirky_log_is_sniffed_by_content_and_read(tmp_path):
+    p = _quirky_log(tmp_path)
+    assert read_recording(p).format == "nmea"  # sniffed, not by its first line or its name
+    rec = nmea.read(p, Options())
+    (s,) = rec.streams
+    assert s.t.tolist() == [float(i) for i in range(20)]  # every second's fix, the prefixed one included
+    assert col(rec, "lat")[5] == pytest.approx(47 + 24.2990 / 60, abs=1e-12)
+    assert col(rec, "gnss_fix")[8] == 1 and col(rec, "gnss_sats")[8] == 9  # the GGA glued to its RMC
+    assert col(rec, "gnss_speed") == pytest.approx([10.0 * KNOT] * 20)
+    assert rec.meta["comment_lines"] == 120
+    assert rec.meta["ignored_types"] == {"!AIVDM": 20, "PUBX": 800, "SD/DBT": 20, "WI/MWV": 20}
+    assert rec.meta["ignored_sentences"] == 860
+    assert not rec.warnings  # the binary bytes sat in front of a GGA on the same line: nothing lost
+
+
+def test_binary_junk_lines_are_counted_not_fatal(tmp_path):
+    p = _quirky_log(tmp_path)
+    p.write_bytes(p.read_bytes() + b"\x00\x01\x02\xff\xfe garbage \x10\r\n" * 3)
+    rec = nmea.read(p, Options())
+    assert len(rec.streams[0].t) == 20
+    (w,) = rec.warnings
+    assert "skipped 3 of" in w and "3 binary" in w
+
+
+def test_sniff_by_share_of_checksummed_sentences(tmp_path):
+    gga = sentence("GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,")
+    csv = tmp_path / "a.csv"
+    csv.write_text("time,lat,lon\n" + "".join(f"{i},47.0,10.0\n" for i in range(200)) + gga + "\n")
+    assert not nmea.sniff(csv, csv.read_bytes()[:4096])  # one sentence among 200 CSV rows is not a log
+    head = "# comment\n" * 3 + "\n".join([gga] * 4) + "\n"
+    assert nmea.sniff(Path("x"), head.encode())
+    assert not nmea.sniff(Path("x"), b"# only comments\n# here\n")
+    # a log of sentences whose checksums all fail is still NMEA, so the reader can say so
+    assert nmea.sniff(Path("x"), b"$GPGGA,1,2*00\n$GPRMC,3*11\n")
+
+
+def _two_sessions_reversed(tmp_path: Path) -> Path:
+    """Two 3-s sessions of one day, the later one first in the file (a logger that appends at the top)."""
+    rows = []
+    for start in (11, 10):
+        for s in range(3):
+            hms = f"{start}0000.00".replace("0000.00", f"00{s:02d}.00")
+            rows += [
+                f"GPRMC,{hms},A,4724.{2940 + start * 10 + s:04d},N,01017.6700,E,1.0,0.0,150325,,,A",
+                f"GPGGA,{hms},4724.{2940 + start * 10 + s:04d},N,01017.6700,E,1,09,0.9,912.0,M,47.9,M,,",
+            ]
+    return write(tmp_path, rows, "two.nmea")
+
+
+def test_two_sessions_in_reverse_order_are_sorted_and_reported(tmp_path):
+    out = tmp_path / "two.parquet"
+    proc = subprocess.run([str(BIN / "ingest"), str(_two_sessions_reversed(tmp_path)), "-o", str(out)], capture_output=True, timeout=120)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr.decode()
+    info = proc.stderr.decode().strip().splitlines()[-1]
+    assert "6 rows" in info and "1 backward steps" in info and "6 reordered" in info
+    table, meta = sfio.read_table(out, kind="session")
+    assert table.column("t").to_pylist() == [0.0, 1.0, 2.0, 3600.0, 3601.0, 3602.0]
+    assert epoch_unix(meta) == calendar.timegm((2025, 3, 15, 10, 0, 0))
+    lat = np.array(table.column("lat").to_pylist())
+    assert np.all(np.diff(lat[:3]) > 0) and lat[3] > lat[2]  # each fix kept with its own values
+    order = meta["provenance"][-1]["params"]["time_order"]
+    assert order == {**order, "backward_steps": 1, "reordered": 6, "duplicates_dropped": 0, "samples": 6}
+
+
+def test_gga_only_without_date_is_refused_by_ingest_naming_date(tmp_path):
+    p = write(tmp_path, ["GPGGA,120000.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"] * 1
+              + ["GPGGA,120001.0,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"])  # fmt: skip
+    proc = subprocess.run([str(BIN / "ingest"), str(p)], capture_output=True, timeout=120)
+    lines = proc.stderr.decode().strip().splitlines()
+    assert proc.returncode == 1 and proc.stdout == b"" and len(lines) == 1
+    assert lines[0].startswith("Error: ingest:") and "--date YYYY-MM-DD" in lines[0]
+    out = tmp_path / "o.parquet"
+    proc = subprocess.run([str(BIN / "ingest"), str(p), "--date", "2026-01-05", "-o", str(out)], capture_output=True)
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert epoch_unix(sfio.read_table(out)[1]) == calendar.timegm((2026, 1, 5, 12, 0, 0))

@@ -298,3 +298,58 @@ def test_combine_counts_with_offset_instead_of_utc(tmp_path):
     got = [ti for ti, v in zip(t, acc, strict=True) if v in (1.0, 2.0)]
     assert got == pytest.approx([0.001, 0.006])
     assert not any("has no absolute time; it starts at session t = 0" in w for w in warnings)  # offset given
+
+
+def test_ios_simple_experiment_export_without_meta(tmp_path):
+    """Sets and headers as phyphox iOS writes them for a sensor experiment made in the app
+    (SimpleExperimentSerializer): axis-only headers, Barometer "X (hPa)", "Vertical Accuracy (°)"."""
+    d = tmp_path / "ios_run"
+    d.mkdir()
+    (d / "Accelerometer.csv").write_text(
+        '"Time (s)","X (m/s^2)","Y (m/s^2)","Z (m/s^2)"\n1.0E-2,1.5E-1,-2.0E-1,9.81E0\n2.0E-2,1.0E-1,0.0E0,9.8E0\n'
+    )
+    (d / "Linear Accelerometer.csv").write_text('"Time (s)","X (m/s^2)","Y (m/s^2)","Z (m/s^2)"\n1.0E-2,0,0,0\n')
+    (d / "Gyroscope.csv").write_text('"Time (s)","X (rad/s)","Y (rad/s)","Z (rad/s)"\n1.0E-2,1.0E-2,2.0E-2,3.0E-2\n')
+    (d / "Magnetometer.csv").write_text('"Time (s)","X (µT)","Y (µT)","Z (µT)"\n1.5E-2,2.0E1,1.0E0,-4.3E1\n')
+    (d / "Barometer.csv").write_text('"Time (s)","X (hPa)"\n5.0E-1,9.125E2\n')
+    (d / "Proximity.csv").write_text('"Time (s)","Distance (cm)"\n5.0E-1,5.0E0\n')
+    (d / "Location.csv").write_text(
+        '"Time (s)","Latitude (°)","Longitude (°)","Height (m)","Velocity (m/s)","Direction (°)",'
+        '"Horizontal Accuracy (m)","Vertical Accuracy (°)","Status"\n'
+        "1.0E0,4.74E1,1.03E1,9.0E2,2.0E0,9.0E1,4.5288E0,3.0E0,Active\n"
+        "2.0E0,4.74E1,1.03E1,9.01E2,2.0E0,9.0E1,4.5288E0,NaN,Active\n"
+    )
+    rec = read_recording(d)
+    assert rec.format == "phyphox" and rec.epoch_utc is None
+    names = [s.name for s in rec.streams]
+    assert "Linear Accelerometer" not in names and "Proximity" not in names
+    acc, gyr, mag, baro, loc = (
+        stream(rec, n) for n in ("Accelerometer", "Gyroscope", "Magnetometer", "Barometer", "Location")
+    )
+    np.testing.assert_allclose(acc.t, [0.01, 0.02])
+    assert values(acc, "acc_x").tolist() == [0.15, 0.1] and values(acc, "acc_z").tolist() == [9.81, 9.8]
+    assert values(gyr, "gyr_z").tolist() == [0.03]
+    assert values(mag, "mag_z").tolist() == [-43.0]
+    assert values(baro, "pressure").tolist() == [91250.0]
+    assert values(loc, "gnss_sigma_v")[0] == 3.0 and np.isnan(values(loc, "gnss_sigma_v")[1])
+    assert values(loc, "h_msl").tolist() == [900.0, 901.0]
+    w = "\n".join(rec.warnings)
+    assert "'Vertical Accuracy (°)' read as metres" in w
+    assert "Location.csv: column(s) Status hold text" in w  # one odd column does not sink the set
+    assert "no meta/time.csv" in w and "not specific force" in w
+
+
+def test_one_unreadable_set_does_not_sink_the_export_and_offset_places_it(tmp_path):
+    d = tmp_path / "run"
+    d.mkdir()
+    (d / "Accelerometer.csv").write_text('"Time (s)","Acceleration x (m/s^2)"\n0.0E0,1.0E0\n1.0E-2,2.0E0\n')
+    (d / "Light.csv").write_text('"Time (s)","Illuminance (lx)"\nnot a time,3\n')
+    out = tmp_path / "s.parquet"
+    cmd = [str(BIN / "ingest"), str(d), "--offset", "run=2.5", "-o", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    err = proc.stderr.decode()
+    assert "set not read" in err and "Light.csv" in err and "no absolute time" in err
+    table, meta = sfio.read_table(out, kind="session")
+    np.testing.assert_allclose(table.column("t").to_numpy(), [2.5, 2.51])
+    assert epoch_unix(meta) is None

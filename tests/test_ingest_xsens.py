@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 import calendar
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from sportfusion.core import io as sfio
 from sportfusion.core.errors import InputError
-from sportfusion.core.rotations import dcm_from_quat, quat_canonical, quat_normalize
+from sportfusion.core.rotations import (
+    dcm_from_quat,
+    euler_from_dcm,
+    quat_canonical,
+    quat_from_dcm,
+    quat_multiply,
+    quat_normalize,
+)
 from sportfusion.ingest import Options, phyphox, read_recording, xsens
 
+BIN = Path(sys.executable).parent
 HEADER = """// Start Time: Unknown
 // Update Rate: 100.0Hz
 // Filter Profile: human (46.1)
@@ -82,8 +93,12 @@ def test_columns_orientation_and_sample_time_fine_wrap(tmp_path, orientation):
     np.testing.assert_allclose(vals(rec, "acc_y"), np.arange(5) + 0.5)
     np.testing.assert_allclose(vals(rec, "gyr_z"), 0.01 * np.arange(5) - 2)
     np.testing.assert_allclose(vals(rec, "mag_z"), 0.2)
+    # converted to q_BO (NED -> sensor): q_BO = q_C (x) q_GS, q_C the rotation from the frame the reader
+    # settled on (no Coordinate system line: ENU, unless Acc/Mag fit another) to NED, written out by hand
+    q_c = {"ENU": [0.0, 0.5**0.5, 0.5**0.5, 0.0], "NWU": [0.0, 1.0, 0.0, 0.0], "NED": [1.0, 0.0, 0.0, 0.0]}
     q = np.column_stack([vals(rec, f"dev_q{i}") for i in range(4)])
-    np.testing.assert_allclose(quat_canonical(q), quats(5), atol=2e-9)
+    want = quat_multiply(np.array(q_c[rec.meta["frame"]]), quats(5))
+    np.testing.assert_allclose(quat_canonical(q), quat_canonical(want), atol=2e-9)
     assert rec.meta["units"] == {"mag_x": "1", "mag_y": "1", "mag_z": "1"}
     assert rec.meta["header"]["Update Rate"] == "100.0Hz"
     assert "FreeAcc_E" in rec.meta["ignored_columns"]
@@ -117,3 +132,123 @@ def test_empty_sample_time_fine_and_utc_cells_fall_back_to_the_packet_counter(tm
     p.write_text(head + rows)
     with pytest.raises(InputError, match="SampleTimeFine and PacketCounter with empty cells, no Update Rate"):
         xsens.read(p, Options())
+
+
+LONG_HEADER = """// General information:
+//  MT Manager version: 2022.2.0
+//  XDA version: 2022.2.0 build 7381 rev 124627 built on 2023-07-19
+// Device information:
+//  DeviceId: 00B4D6D1
+//  ProductCode: MTW2-3A7G6
+//  Firmware Version: 4.6.0
+//  Hardware Version: 2.0.0
+// Device settings:
+//  Filter Profile: human(46.1)
+//  Option Flags: Orientation Smoother Disabled, Position/Velocity Smoother Disabled, AHS Disabled, ICC Disabled
+// Coordinate system: {frame}
+"""
+#: G -> NED for each frame MT Manager offers, written out independently of the reader
+C_NG = {
+    "ENU": np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, -1]]),
+    "NWU": np.array([[1.0, 0, 0], [0, -1, 0], [0, 0, -1]]),
+    "NED": np.eye(3),
+}
+M_NED = np.array([20.0, 1.5, 43.0])  # field at the site [uT]: declination ~4 deg east, dip ~65 deg
+
+
+def truth(n: int = 6):
+    """True attitudes q_BO (NED -> sensor) and what a sensor at rest reads: specific force and field."""
+    rng = np.random.default_rng(11)
+    from sportfusion.core.rotations import quat_from_euler
+
+    q = quat_from_euler(rng.uniform(-0.6, 0.6, n), rng.uniform(-0.6, 0.6, n), rng.uniform(-np.pi, np.pi, n))
+    m_bo = dcm_from_quat(q)
+    acc = m_bo @ np.array([0.0, 0.0, -9.81])  # at rest the specific force points up
+    mag = m_bo @ (M_NED / np.linalg.norm(M_NED))  # MT Manager normalises the field
+    return q, m_bo, acc, mag
+
+
+def mt_file(tmp_path, frame, stated, orientation="quat", imu=True, sep="\t", rate_line=False, name="mt.txt"):
+    q, m_bo, acc, mag = truth()
+    r_gs = C_NG[frame].T @ np.swapaxes(m_bo, -1, -2)  # sensor -> G
+    cols: dict[str, list[str]] = {"PacketCounter": [f"{k:05d}" for k in range(6)], "SampleTimeFine": [""] * 6}
+    if imu:
+        for k, a in enumerate("XYZ"):
+            cols[f"Acc_{a}"] = [f"{v:.9f}" for v in acc[:, k]]
+            cols[f"Mag_{a}"] = [f"{v:.9f}" for v in mag[:, k]]
+    if orientation == "quat":
+        qg = quat_from_dcm(np.swapaxes(r_gs, -1, -2))  # quat_from_dcm(R^T) is the quaternion of R
+        for i in range(4):
+            cols[f"Quat_q{i}"] = [f"{v:.9f}" for v in qg[:, i]]
+    elif orientation == "mat":
+        for i in range(3):
+            for j in range(3):
+                cols[f"Mat[{i + 1}][{j + 1}]"] = [f"{v:.9f}" for v in r_gs[:, i, j]]
+    else:
+        roll, pitch, yaw = euler_from_dcm(np.swapaxes(r_gs, -1, -2))  # z-y-x angles of R_GS in G
+        cols.update(
+            {k: [f"{np.degrees(v):.7f}" for v in a] for k, a in (("Roll", roll), ("Pitch", pitch), ("Yaw", yaw))}
+        )
+    cols["Status"] = ["NaN"] * 6
+    head = LONG_HEADER.format(frame=stated) if stated else LONG_HEADER.split("// Coordinate")[0]
+    if rate_line:
+        head += "//  Update Rate: 100.0Hz\n"
+    lines = [sep.join(cols)] + [sep.join(c[r] for c in cols.values()) for r in range(6)]
+    p = tmp_path / name
+    p.write_text(head + "\n".join(lines) + "\n")
+    return p, q
+
+
+def q_of(rec, prefix):
+    return np.column_stack([vals(rec, f"{prefix}{i}") for i in range(4)])
+
+
+@pytest.mark.parametrize("frame", ["ENU", "NWU", "NED"])
+@pytest.mark.parametrize("sep", ["\t", ",", ";", " "], ids=["tab", "comma", "semicolon", "space"])
+def test_stated_frame_converted_to_q_bo_and_checked_against_the_field(tmp_path, frame, sep):
+    p, q_true = mt_file(tmp_path, frame, frame, sep=sep)
+    assert xsens.sniff(p, p.read_bytes()[:4096])
+    rec = read_recording(p, opts=Options(rate=100.0))
+    assert rec.format == "xsens" and rec.meta["frame"] == frame
+    np.testing.assert_allclose(rec.streams[0].t, np.arange(6) / 100.0)  # PacketCounter at --rate
+    np.testing.assert_allclose(quat_canonical(q_of(rec, "dev_q")), quat_canonical(q_true), atol=1e-8)
+    check = rec.meta["frame_check"][frame]
+    assert check["passes"] and abs(check["north_deg"] - np.degrees(np.arctan2(1.5, 20.0))) < 1e-3
+    assert not any("fits" in w for w in rec.warnings)
+    assert "Status" in rec.meta["ignored_columns"]
+
+
+def test_a_mislabelled_frame_is_caught_by_the_magnetometer(tmp_path):
+    p, q_true = mt_file(tmp_path, "ENU", "NWU")  # data in ENU, header says NWU
+    rec = xsens.read(p, Options(rate=100.0))
+    assert rec.meta["frame"] == "ENU"
+    np.testing.assert_allclose(quat_canonical(q_of(rec, "dev_q")), quat_canonical(q_true), atol=1e-8)
+    w = next(w for w in rec.warnings if "fits" in w)
+    assert "stated NWU puts magnetic north at -86 deg" in w and "ENU fits" in w
+
+
+@pytest.mark.parametrize("orientation", ["quat", "mat", "euler"])
+def test_orientation_only_export_gives_q0_q3_and_needs_a_rate(tmp_path, orientation):
+    p, q_true = mt_file(tmp_path, "ENU", "ENU", orientation=orientation, imu=False, sep=";")
+    assert xsens.sniff(p, p.read_bytes()[:4096])
+    with pytest.raises(InputError, match=r"--rate HZ"):
+        read_recording(p)  # long header, no Update Rate, SampleTimeFine empty
+    rec = read_recording(p, opts=Options(rate=60.0))
+    np.testing.assert_allclose(rec.streams[0].t, np.arange(6) / 60.0)
+    assert not any(k.startswith(("acc", "dev_q")) for k in rec.streams[0].columns)
+    np.testing.assert_allclose(quat_canonical(q_of(rec, "q")), quat_canonical(q_true), atol=1e-7)
+    assert rec.meta["time_from"] == "PacketCounter"
+
+
+def test_rate_from_a_long_header_and_the_command_line(tmp_path):
+    p, _ = mt_file(tmp_path, "NED", "NED", rate_line=True)
+    rec = read_recording(p)
+    np.testing.assert_allclose(rec.streams[0].t, np.arange(6) / 100.0)
+    out = tmp_path / "s.parquet"
+    p2, _ = mt_file(tmp_path, "ENU", "ENU", imu=False, name="ori.txt")
+    cmd = [str(BIN / "ingest"), str(p2), "--rate", "50", "-o", str(out)]
+    proc = subprocess.run(cmd, capture_output=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr.decode()
+    table, _ = sfio.read_table(out, kind="session")
+    assert table.column_names[:5] == ["t", "q0", "q1", "q2", "q3"]
+    np.testing.assert_allclose(table.column("t").to_numpy(), np.arange(6) / 50.0)

@@ -76,7 +76,12 @@ def test_known_column_with_wrong_type_named():
 
 @pytest.mark.parametrize(
     ("t", "needle"),
-    [([0.0, 1.0, 1.0], "strictly increasing at row 2"), ([0.0, np.nan], "not finite at row 1"), ([0.0, None], "null")],
+    [
+        ([0.0, 1.0, 1.0], "strictly increasing at row 2"),
+        ([0.0, 1.0, 1.0], r"row 2: it repeats the time of row 1 \(t = 1.000000 s"),  # duplicates name the rows
+        ([0.0, np.nan], "not finite at row 1"),
+        ([0.0, None], "null"),
+    ],
 )
 def test_bad_time_named(t, needle):
     data = sfio.table_to_bytes(pa.table({"t": pa.array(t, pa.float64())}), sfmeta.new_meta())

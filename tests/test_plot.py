@@ -113,7 +113,7 @@ def test_help_and_console_script() -> None:
     assert r.returncode == 0 and b"hill" in r.stdout and b"track" in r.stdout
     for sub in ("hill", "track"):
         r = CliRunner().invoke(main, [sub, "--help"])
-        assert r.exit_code == 0 and "Example:" in r.stdout and ".png or .svg" in " ".join(r.stdout.split())
+        assert r.exit_code == 0 and "Example:" in r.stdout and ".png, .svg or .pdf" in " ".join(r.stdout.split())
     assert CliRunner().invoke(main, ["--version"]).exit_code == 0
 
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.session import Stream, merge_streams, validate_time, with_columns
+from sportfusion.core.session import Stream, merge_streams, order_by_time, validate_time, with_columns
 
 
 def test_shared_instants_share_a_row():
@@ -22,13 +22,15 @@ def test_shared_instants_share_a_row():
     assert rep.rows == {"imu": 3, "gps": 2}
 
 
-def test_identical_repeats_folded_and_counted_conflicts_refused():
+def test_identical_repeats_folded_and_counted_conflicts_resolved_first_wins():
     g = Stream("gps", [0.0, 1.0, 1.0, 2.0], {"lat": [1.0, 2.0, 2.0, 3.0]})
     table, rep = merge_streams([g])
     assert table.num_rows == 3 and rep.duplicates == {"gps": 1}
+    # issue 15/17: two different samples at one time are no longer refused: the first (file order) wins
     bad = Stream("gps", [0.0, 1.0, 1.0], {"lat": [1.0, 2.0, 2.5]})
-    with pytest.raises(InputError, match="two different samples at t = 1.000000"):
-        merge_streams([bad])
+    table, rep = merge_streams([bad])
+    assert table.column("lat").to_pylist() == [1.0, 2.0]
+    assert rep.order["gps"].conflicts == 1 and rep.order["gps"].conflict_rows == [(2, 1.0)]
 
 
 def test_same_column_from_two_inputs_at_one_instant_refused():
@@ -81,3 +83,41 @@ def test_merge_of_random_multirate_streams_loses_nothing(spec):
         np.testing.assert_array_equal(t[present], np.sort(s.t))
         np.testing.assert_array_equal(vals[present].astype(float), np.arange(len(s.t)) + 1000 * i)
     assert sum(rep.rows.values()) == sum(len(s.t) for s in streams)
+
+
+def test_time_error_names_the_rows():
+    table = pa.table({"t": [0.0, 1.0, 2.0, 2.0, 1.5]})
+    with pytest.raises(
+        InputError, match=r"at row 3: it repeats the time of row 2 \(t = 2.000000 s then 2.000000 s; 2 such"
+    ):
+        validate_time(table)
+
+
+samples = st.lists(
+    st.tuples(st.integers(0, 15), st.sampled_from([1.0, 2.0, None]), st.sampled_from([10, 20])), min_size=1, max_size=40
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(samples)
+def test_time_order_policy_properties(rows):
+    """Any order, repeats and gaps: strictly increasing output, one row per instant, every sample accounted for,
+    the first sample in file order wins each column it has, the later ones only fill its nulls."""
+    t = np.array([r[0] for r in rows], dtype=float)
+    lat = np.array([np.nan if r[1] is None else r[1] for r in rows])
+    fix = [r[2] for r in rows]
+    out, rep = order_by_time(Stream("g", t, {"lat": lat, "gnss_fix": np.array(fix)}))
+    assert np.all(np.diff(out.t) > 0)
+    np.testing.assert_array_equal(out.t, np.unique(t))
+    assert out.t.size + rep.duplicates + rep.merged + rep.conflicts + rep.no_time == len(rows)
+    assert rep.backward_steps == int((np.diff(t) < 0).sum())
+    for k, tk in enumerate(out.t):
+        idx = [i for i in range(len(rows)) if t[i] == tk]  # file order
+        have = [lat[i] for i in idx if np.isfinite(lat[i])]
+        assert out.columns["lat"][k].as_py() == (have[0] if have else None)
+        assert out.columns["gnss_fix"][k].as_py() == fix[idx[0]]
+    # an exactly repeated row never counts as a conflict, and sorting an already ordered stream moves nothing
+    again, rep2 = order_by_time(
+        Stream("g", np.repeat(out.t, 2), {"gnss_fix": np.repeat(out.columns["gnss_fix"].to_numpy(), 2)})
+    )
+    assert rep2.duplicates == out.t.size and rep2.conflicts == 0 and rep2.reordered == 0

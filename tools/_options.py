@@ -130,20 +130,22 @@ def _image_path(ctx: click.Context, param: click.Parameter, value: str) -> str:
 
 
 def image_options(f: Any) -> Any:
-    """``-o FILE.png|svg``, ``--dpi`` and ``--title`` for a ``plot`` subcommand."""
+    """``-o FILE.png|svg|pdf``, ``--dpi`` and ``--title`` for a ``plot`` subcommand."""
     f = click.option(
         "--dpi",
         type=click.FloatRange(10, 1200),
         default=150,
         show_default=True,
-        help="PNG resolution [dots per inch] (SVG is vector).",
+        help="PNG resolution [dots per inch] (SVG and PDF are vector).",
     )(f)
-    f = click.option("--title", default=None, help="Figure title (default: the hill's name).")(f)
+    f = click.option(
+        "--title", default=None, help="Figure title (default: what the figure shows, or the hill's name)."
+    )(f)
     return click.option(
         "-o",
         "--output",
         required=True,
         type=click.Path(dir_okay=False, writable=True),
         callback=_image_path,
-        help="Image file to write; the suffix picks the format: .png or .svg.",
+        help="Image file to write; the suffix picks the format: .png, .svg or .pdf.",
     )(f)

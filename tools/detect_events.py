@@ -268,5 +268,10 @@ def main(tool: Tool, kind: str | None, **options: Any) -> None:
         tool.info(f"--kind {kind}: {implied[1]}")
         tool.params["kind"] = kind
     table, meta, message = RUNNERS[kind](table, meta, options)
+    summary = (meta.get("events") or [{}])[-1] or {}
+    for w in summary.get("warnings", []):
+        tool.warn(w)
+    if summary.get("kind") == "jump" and not summary.get("jumps"):
+        tool.warn(message)  # no take-off/touch-down: say why even under -q (rts-smooth will need them)
     tool.info(message)
     tool.write(table, meta)

@@ -102,7 +102,11 @@ def main(
     azimuth from north), quest_loss (Wahba loss, 0 = consistent), dmc_singular
     (near free fall or field parallel to f) and ax_dmc ay_dmc az_dmc, the
     kinematic acceleration re-estimated from the specific force through the
-    attitude, in the local frame."""
+    attitude, in the local frame, and mag_implausible (the field norm is more
+    than 20 % off the model's intensity, or, standing still, the
+    field-to-gravity angle more than 5 deg off the model's: a disturbed or miscalibrated magnetometer;
+    a warning line gives the numbers, as for a --dip-from-data inclination
+    more than 5 deg from the model's)."""
     table, meta = tool.read()
     result = dmc_table(
         table,

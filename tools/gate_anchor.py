@@ -131,5 +131,7 @@ def main(
         eks=EKSParams(q_jerk=q_jerk, sigma_acc=sigma_acc),
     )
     out, meta, msg = gate_anchor_table(table, meta, survey, smeta, params)
+    for w in meta["gate_anchor"].get("warnings", []):
+        tool.warn(w)
     tool.info(msg)
     tool.write(out, meta)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-import click
+import math
 
-from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, gnss_to_frame
+import click
+import pyarrow.compute as pc
+
+from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, auto_origin, gnss_to_frame, track_heights
 from sportfusion.core.schema import require_columns
 from sportfusion.skijump.hillfile import hill_from_meta
 from sportfusion.tools._cli import Tool, tool
@@ -18,14 +21,25 @@ from sportfusion.tools._options import hill_options, load_hill_option, parse_flo
   ingest run.zip track.nmea | gps2hill --hill oberstdorf_hs106 > session.parquet
   gps2hill session.parquet --hill my_hill.toml --hill-set height=951.2 -o hill.parquet
   gps2hill course.parquet --origin 47.2871,11.4044,2005 --azimuth 118 > local.parquet
-  gps2hill session.parquet --hill oberstdorf_hs106 --method paper > paper.parquet""",
+  gps2hill session.parquet --hill oberstdorf_hs106 --method paper > paper.parquet
+  ingest watch.gpx | gps2hill --origin auto > local.parquet
+  ingest watch.gpx | gps2hill --hill oberstdorf_hs106 --geoid-offset 47.9 > hill.parquet""",
 )
 @hill_options
 @click.option(
     "--origin",
-    metavar="LAT,LON,H",
+    metavar="LAT,LON,H|auto",
     default=None,
-    help="Frame origin: latitude [deg], longitude [deg], ellipsoidal height [m]; default: the hill's take-off edge.",
+    help="Frame origin: latitude [deg], longitude [deg], ellipsoidal height [m]; or 'auto': the track's first "
+    "valid fix (for a venue without a surveyed origin); default: the hill's take-off edge.",
+)
+@click.option(
+    "--geoid-offset",
+    type=float,
+    default=None,
+    metavar="M",
+    help="Geoid separation N at the site [m] for tracks with heights above mean sea level only (GPX <ele>, "
+    "phone exports): h = h_msl + N.",
 )
 @click.option(
     "--azimuth",
@@ -45,6 +59,7 @@ def main(
     hill: str | None,
     hill_set: tuple[str, ...],
     origin: str | None,
+    geoid_offset: float | None,
     azimuth: float | None,
     method: str,
 ) -> None:
@@ -56,29 +71,55 @@ def main(
     gnss_sigma_v to z).  vel_n vel_e vel_d stay NED, untouched.  The frame
     (and the hill with --hill) is written into the metadata.  Without --hill
     and --origin the hill named in the session's metadata is used; a session
-    that names none is refused."""
+    that names none is refused.
+
+    Heights: h (ellipsoidal) where the table has it; rows with only h_msl
+    (height above mean sea level) use h_msl + --geoid-offset, else the
+    receiver's own geoid separation where some rows give both.  A track with
+    MSL heights only reaches a hill frame with --geoid-offset, or a local
+    frame with --origin auto (heights then stay MSL, said in the frame); a
+    track without heights gets gnss_x/gnss_y and a null gnss_z."""
     table, meta = tool.read()
-    require_columns(table, GNSS_COLUMNS, "gps2hill (WGS84 latitude, longitude, ellipsoidal height)")
+    require_columns(table, GNSS_COLUMNS, "gps2hill (WGS84 latitude and longitude)")
+    if geoid_offset is not None and not (math.isfinite(geoid_offset) and abs(geoid_offset) <= 150.0):
+        raise click.BadParameter(
+            f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"
+        )
     the_hill = load_hill_option(hill, hill_set)
     if the_hill is None and origin is None and (meta.get("hill") or {}).get("spec"):
         the_hill = hill_from_meta(meta)  # the session already names its hill (simulate, an earlier gps2hill)
         tool.info(f"--hill {the_hill.spec}: the session's hill")
     if the_hill is None and origin is None:
         raise click.UsageError(
-            "give --hill NAME|FILE.toml or --origin LAT,LON,H (with --azimuth DEG); the session names no hill"
+            "give --hill NAME|FILE.toml or --origin LAT,LON,H|auto (with --azimuth DEG); the session names no hill"
         )
-    if origin is not None:
+    az = azimuth if azimuth is not None else (the_hill.site.get("azimuth_deg", 0.0) if the_hill else 0.0)
+    name = "hill" if the_hill else "local"
+    if origin is not None and origin.strip().lower() == "auto":
+        lat, lon, h, ref = auto_origin(table, track_heights(table, geoid_offset))
+        frame = Frame(lat, lon, h, az, name, ref)
+    elif origin is not None:
         lat, lon, h = parse_floats(origin, 3, "--origin")
-        az = azimuth if azimuth is not None else (the_hill.site.get("azimuth_deg", 0.0) if the_hill else 0.0)
-        frame = Frame(lat, lon, h, az, "hill" if the_hill else "local")
+        frame = Frame(lat, lon, h, az, name)
     else:
         frame = the_hill.frame()
         if azimuth is not None:
             frame = Frame(frame.lat, frame.lon, frame.h, azimuth, "hill")
-    out, meta = gnss_to_frame(table, meta, frame, method, the_hill.meta() if the_hill else None)
+    out, meta = gnss_to_frame(table, meta, frame, method, the_hill.meta() if the_hill else None, geoid_offset)
     n_fix = out.num_rows - out.column("gnss_x").null_count
+    n_pos = int(pc.sum(pc.and_(pc.is_valid(table.column("lat")), pc.is_valid(table.column("lon")))).as_py() or 0)
+    if n_pos > n_fix:
+        tool.warn(
+            f"{n_pos - n_fix} row(s) with lat/lon have no usable height and stay null in the frame "
+            "(heights above mean sea level only need --geoid-offset M)"
+        )
+    fr = meta["frame"]
+    heights = {"ellipsoidal": "ellipsoidal heights", "msl": "heights above mean sea level", "none": "no heights"}
+    how = heights[fr["gnss_z_ref"]] + (" (2-D: gnss_z null)" if fr["gnss_z_ref"] == "none" else "")
+    if "geoid_offset_m" in fr:
+        how += f", h = h_msl + {fr['geoid_offset_m']:.2f} m from {fr['geoid_source']}"
     tool.info(
         f"{n_fix} of {out.num_rows} rows into frame '{frame.name}' (origin {frame.lat:.6f}, {frame.lon:.6f}, "
-        f"{frame.h:.2f} m; azimuth {frame.azimuth_deg:g} deg; method {method})"
+        f"{frame.h:.2f} m {frame.height_ref}; azimuth {frame.azimuth_deg:g} deg; method {method}; {how})"
     )
     tool.write(out, meta)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import re
 from pathlib import Path
 
 import click
@@ -9,7 +12,7 @@ import click
 from sportfusion.core.errors import InputError
 from sportfusion.core.io import write_table
 from sportfusion.core.meta import add_provenance
-from sportfusion.ingest import FORMATS, Options, combine, read_recording
+from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_pairs
 
@@ -23,7 +26,8 @@ from sportfusion.tools._options import parse_pairs
   ingest phyphox_export.zip gps_logger.nmea -o session.parquet
   ingest track.gpx --geoid-offset 47.9 > gnss.parquet
   ingest dataset/P01/V01/trials/T1 --hand lefthand --holds-out holds.parquet > trial.parquet
-  ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet""",
+  ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet
+  ingest rover.pos imu.csv --map imu.csv:t=1,acc_x=2,acc_y=3,acc_z=4 --units imu.csv:t=ticks,acc=0.000244g --rate 400 > s.parquet""",
 )
 @click.argument("raw", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
 @click.option(
@@ -44,7 +48,8 @@ from sportfusion.tools._options import parse_pairs
     "--geoid-offset",
     type=float,
     default=None,
-    help="GPX: geoid separation N [m] added to <ele> (MSL) to give ellipsoidal h.",
+    help="GPX, NMEA, FIT, TCX: geoid separation N [m] added to heights above mean sea level (<ele>, GGA "
+    "without its separation, FIT/TCX altitude) to give ellipsoidal h (gps2hill takes the same option for any format).",
 )
 @click.option(
     "--date",
@@ -57,22 +62,31 @@ from sportfusion.tools._options import parse_pairs
     "--map",
     "mapping",
     multiple=True,
-    metavar="COL=HEADER[,COL=HEADER...]",
-    help="Generic CSV: table column from CSV header, e.g. t=Time,acc_x=AccX.",
+    metavar="[FILE:]COL=HEADER[,...]",
+    help="Generic CSV: table column from CSV header or 1-based column number, e.g. t=Time,acc_x=AccX or t=1,acc_x=2. "
+    "A FILE: prefix (an input's file name) applies it to that input only; repeatable.",
 )
 @click.option(
     "--time-unit",
-    type=click.Choice(["s", "ms", "us", "ns", "iso"]),
+    type=click.Choice(["s", "ms", "us", "ns", "ticks", "iso"]),
     default="s",
     show_default=True,
-    help="Generic CSV: unit of the time column [s, ms, us, ns or ISO-8601 UTC].",
+    help="Generic CSV: unit of the time column [s, ms, us, ns, ticks of 1/--rate s, or ISO-8601 UTC].",
+)
+@click.option(
+    "--rate",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    metavar="HZ",
+    help="Sampling rate [Hz] where the file states none: Xsens exports timed by PacketCounter, CSV time in ticks.",
 )
 @click.option(
     "--units",
     "units",
     multiple=True,
-    metavar="COL=UNIT[,...]",
-    help="Generic CSV: unit of the CSV values per column (g, deg/s, mG, nT, km/h, ...).",
+    metavar="[FILE:]COL=UNIT[,...]",
+    help="Generic CSV: unit of the values per column or group (acc=g, gyr=deg/s, mag=mG, t=ms; a scale for counts: "
+    "acc=0.000244g). A FILE: prefix applies it to that input only.",
 )
 @click.option(
     "--hand",
@@ -109,32 +123,50 @@ def main(
     no_time: bool,
     mapping: tuple[str, ...],
     time_unit: str,
+    rate: float | None,
     units: tuple[str, ...],
     hand: str | None,
     hold_map: str | None,
     map_up: str,
     holds_out: str | None,
 ) -> None:
-    """Read raw recordings (phyphox CSV export as ZIP or folder, NMEA 0183, GPX 1.1,
-    RTKLIB .pos, Xsens MT Manager text export, a bouldering-dataset trial folder,
+    """Read raw recordings (phyphox CSV export as ZIP or folder, Sensor Logger ZIP or
+    folder, NMEA 0183, GPX 1.1, Garmin FIT and TCX, RTKLIB .pos, Xsens MT Manager text
+    export, a bouldering-dataset trial folder, a session Parquet, our own CSV from inspect --csv,
     or any CSV with a column map) and merge them into one session table on one
-    clock: UTC where inputs have it, plus --offset. Every sample is kept: rows
-    are the union of all sample times, a sensor's columns null elsewhere."""
+    clock: UTC where inputs have it, plus --offset. Rows are the union of all
+    sample times, a sensor's columns null elsewhere. Times out of order are
+    sorted; samples of one input at one time become one row (exact duplicates
+    dropped, the first in file order wins a conflict); all counted on stderr
+    and in the provenance (docs/recordings-gnss.md)."""
+    if geoid_offset is not None and not (math.isfinite(geoid_offset) and abs(geoid_offset) <= 150.0):
+        raise click.BadParameter(
+            f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"
+        )
+    maps, map_all = _per_input(mapping, "--map", raw)
+    unit_sets, units_all = _per_input(units, "--units", raw)
     opts = Options(
         geoid_offset=geoid_offset,
         no_time=no_time,
         date=date,
-        column_map=parse_pairs(mapping, "--map"),
+        column_map=map_all,
         time_unit=time_unit,
-        units=parse_pairs(units, "--units"),
+        units=units_all,
         hand=hand,
         hold_map=hold_map,
         map_up=map_up,
+        rate=rate,
     )
     offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
-    if mapping and fmt is None:
-        fmt = "csvmap"  # a column map only makes sense for the generic CSV reader
-    recordings = [read_recording(p, fmt, opts) for p in raw]
+    recordings = []
+    for i, p in enumerate(raw):
+        own = dataclasses.replace(
+            opts,
+            column_map={**map_all, **maps.get(i, {})},
+            units={**units_all, **unit_sets.get(i, {})},
+        )
+        # a column map only makes sense for the generic CSV reader
+        recordings.append(read_recording(p, fmt or ("csvmap" if own.column_map else None), own))
     table, meta, warnings = combine(recordings, offs)
     for w in warnings:
         tool.warn(w)
@@ -145,8 +177,35 @@ def main(
         write_table(holds[0][0], add_provenance(holds[0][1], tool.name, tool.params), holds_out)
     elif holds:
         tool.info("a hold map was found; write it for pf-holds with --holds-out FILE")
-    tool.info(f"{table.num_rows} rows from {len(raw)} input(s)")
-    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw]})
+    order = time_order_totals(meta)
+    done = ", ".join(f"{v} {k.replace('_', ' ')}" for k, v in order.items() if v and k != "samples")
+    tool.info(f"{table.num_rows} rows from {len(raw)} input(s); time order: {done or 'already in order'}")
+    tool.write(table, meta, {**tool.params, "raw": [str(p) for p in raw], "time_order": order})
+
+
+_PREFIX = re.compile(r"^([^=,]+):(?=[^:=,]+=)")
+
+
+def _per_input(
+    values: tuple[str, ...], option: str, raw: tuple[Path, ...]
+) -> tuple[dict[int, dict[str, str]], dict[str, str]]:
+    """Split ``FILE:COL=X,...`` values (for the input named FILE) from the ones for every input."""
+    own: dict[int, dict[str, str]] = {}
+    common: list[str] = []
+    for value in values:
+        m = _PREFIX.match(value)
+        if m is None:
+            common.append(value)
+            continue
+        name = m.group(1)
+        hits = [i for i, p in enumerate(raw) if name in (str(p), p.name)]
+        if not hits:
+            raise click.BadParameter(
+                f"{value!r}: {name!r} is not one of the inputs ({', '.join(p.name for p in raw)})", param_hint=option
+            )
+        for i in hits:
+            own.setdefault(i, {}).update(parse_pairs([value[m.end() :]], option))
+    return own, parse_pairs(common, option)
 
 
 def _seconds(text: str) -> float:

@@ -1,4 +1,4 @@
-"""``plot``: PNG/SVG figures -- ``plot hill`` (a profile) and ``plot track`` (a session over its hill)."""
+"""``plot``: PNG/SVG/PDF figures -- ``plot hill`` (a profile) and ``plot track`` (a session over its hill)."""
 
 from __future__ import annotations
 
@@ -18,13 +18,13 @@ from sportfusion.tools.plot_figures import COMMANDS as FIGURE_COMMANDS
     writes_table=False,
     example="""
   plot hill --hill oberstdorf_hs106 -o oberstdorf.png
-  plot hill --hill my_hill.toml --hill-set rL=230 -o my_hill.svg""",
+  plot hill --hill my_hill.toml --hill-set rL=230 -o my_hill.pdf""",
 )
 @hill_options(required=True)
 @image_options
 def hill_cmd(tool: Tool, hill: str, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float) -> None:
     """Draw a hill's longitudinal profile (in-run, landing hill, out-run) with
-    its key points A B E1 E2 T F P K L U, in the hill frame [m]."""
+    its key points A B E1 E2 T F P K L U, in the hill frame [m], to scale."""
     from sportfusion.core.plots import figure_format, render
     from sportfusion.skijump.plots import hill_figure
 
@@ -108,12 +108,14 @@ def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_
 )
 @click.version_option(__version__, "--version", prog_name="plot", message="%(prog)s (sportfusion) %(version)s")
 def main() -> None:
-    """PNG/SVG figures (format from the -o suffix): `hill` a hill profile,
-    `track` a session over it, `speed` the trajectory coloured by speed,
+    """PNG, SVG or PDF figures (format from the -o suffix: .png, .svg, .pdf):
+    `hill` a hill profile, `track` a session over it, `speed` the trajectory
+    coloured by speed with a zoom on the flight,
     `series` estimates against time, `errors` estimate minus truth, `mag`
     measured vs estimated magnetometer, `spline` spline vs raw GNSS, `gates`
     an alpine course with its anchors, `holds` a climbing hand path over the
-    hold map.  Needs matplotlib (the `plot` extra)."""
+    hold map, `compare` runs compared gate by gate.  Needs matplotlib (the
+    `plot` extra). docs/plots.md shows each figure."""
 
 
 main.add_command(hill_cmd, name="hill")

@@ -1,7 +1,7 @@
 """``plot`` subcommands for the figures of the papers: speed, series, errors, mag, spline, gates, holds.
 
-Each reads one table (stdin or INPUT), takes side inputs as options and writes one image (-o, PNG
-or SVG by suffix). The drawing lives in :mod:`sportfusion.core.plots` and
+Each reads one table (stdin or INPUT), takes side inputs as options and writes one image (-o, PNG,
+SVG or PDF by suffix). The drawing lives in :mod:`sportfusion.core.plots` and
 :mod:`sportfusion.skirace.plots`.
 """
 
@@ -36,7 +36,8 @@ def _truth_option(required: bool = False):  # noqa: ANN202 - click decorator
     "plot speed",
     writes_table=False,
     example="""
-  rts-smooth jump.parquet --hill oberstdorf_hs106 | plot speed -o speed.png""",
+  rts-smooth jump.parquet --hill oberstdorf_hs106 | plot speed -o speed.png
+  plot speed smoothed.parquet -o speed.pdf""",
 )
 @hill_options
 @image_options
@@ -44,7 +45,8 @@ def speed_cmd(
     tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
 ) -> None:
     """Side view of the estimated trajectory x, -z [m] coloured by speed [m/s] over the hill profile
-    (skijump Figure 7); events annotated with their speed. Hill: --hill, else the session's hill."""
+    (skijump Figure 7), and a zoom on the flight (take-off to touch-down events, own colour scale);
+    events annotated with their speed. Hill: --hill, else the session's hill."""
     from sportfusion.skijump.plots import profile_from_meta, speed_figure
 
     table, meta = tool.read()
@@ -61,8 +63,9 @@ def speed_cmd(
 )
 @image_options
 def series_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
-    """Position [m] (with the GNSS points), velocity [m/s], attitude [deg] and estimated sensor
-    biases against time [s], 1-sigma bands, events as dashed lines (skijump Figures 8-11)."""
+    """Position [m] (with the GNSS points), velocity [m/s], attitude [deg, unwrapped: no jumps at
+    +-180] and estimated sensor biases against time [s], 1-sigma bands, events as labelled dashed
+    lines (skijump Figures 8-11)."""
     from sportfusion.core.plots import series_figure
 
     table, meta = tool.read()
@@ -114,8 +117,9 @@ def mag_cmd(tool: Tool, output: str, title: str | None, dpi: float) -> None:
 @_truth_option()
 @image_options
 def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
-    """Raw GNSS gnss_x, gnss_y [m] against the smoothing spline x, y [m] in plan view, and their
-    horizontal difference [m] against time [s] with RTK-float epochs shaded (skiracing Figures 5-6)."""
+    """Raw GNSS gnss_x, gnss_y [m] against the smoothing spline x, y [m] in plan view (y stretched
+    by a stated factor when the run is long and thin), and their horizontal difference [m] against
+    time [s] with RTK-float epochs shaded (skiracing Figures 5-6)."""
     from sportfusion.skirace.plots import spline_figure
 
     table, _ = tool.read()
@@ -138,8 +142,9 @@ def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | Non
 )
 @image_options
 def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: float) -> None:
-    """Top view of an alpine course [m]: surveyed gates, the trajectory, and each detected crossing
-    joined to the gate it was matched to (gates paper Figure 2)."""
+    """Top view of an alpine course [m]: surveyed gates (numbered), the trajectory, and each detected
+    crossing joined to the gate it was matched to (gates paper Figure 2); the across-slope axis is
+    stretched by a stated factor when the course is long and thin."""
     from sportfusion.gates.plots import gates_figure
 
     table, _ = tool.read()
@@ -164,8 +169,9 @@ def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: 
 @_truth_option()
 @image_options
 def holds_cmd(tool: Tool, holds_path: str, truth_path: str | None, output: str, title: str | None, dpi: float) -> None:
-    """Front view of the wall [m]: the routes' holds (S: start hold), the estimated hand path with its
-    grips, and the true path when --truth is given (climbing paper Figure 6)."""
+    """Front view of the wall [m]: the routes' holds, numbered (S: start hold), in the colour the route
+    is named after, the estimated hand path with its grips, and the true path when --truth is given
+    (climbing paper Figure 6)."""
     from sportfusion.climbing.plots import holds_figure
 
     table, _ = tool.read()

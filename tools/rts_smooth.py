@@ -114,5 +114,7 @@ def main(
     finally:
         if bar is not None:
             bar.__exit__(None, None, None)
+    for w in meta["rts"].get("warnings", []):
+        tool.warn(w)
     tool.info(msg)
     tool.write(out, meta)

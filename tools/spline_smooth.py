@@ -95,6 +95,14 @@ def _segment(text: str) -> tuple[float, float, float]:
     type=click.FloatRange(0, min_open=True),
     help="Longest GNSS data gap bridged [s]; rows in longer gaps stay null.",
 )
+@click.option(
+    "--robust/--no-robust",
+    default=True,
+    show_default=True,
+    help="Weight down fixes that disagree with their neighbours beyond their stated accuracy (phone/watch "
+    "position jumps of tens of m): Tukey weights on leave-one-out residuals [m / sigma], screened also by the "
+    "receiver's own velocity (vel_n/vel_e) or speed (gnss_speed) where the table has them; writes gnss_weight [1].",
+)
 def main(
     tool: Tool,
     lam: str,
@@ -105,6 +113,7 @@ def main(
     no_trans: int,
     edge_factor: float,
     max_gap: float,
+    robust: bool,
 ) -> None:
     """Smooth a GNSS track in the local frame (gnss_x gnss_y gnss_z, from
     gps2hill) with weighted smoothing cubic splines, one per coordinate, solved
@@ -117,7 +126,8 @@ def main(
     the tangent from north [rad]), std_x std_y std_z when sigmas are given
     (input noise propagated through the smoother), and spline_filled (True
     where the value bridges a GNSS data gap). Every row inside the GNSS span
-    gets values, IMU rows included; rows outside it stay null."""
+    gets values, IMU rows included; rows outside it stay null. With --robust
+    (default) phone/watch position jumps are weighted down (gnss_weight)."""
     table, meta = tool.read()
     result = smooth_session(
         table,
@@ -130,6 +140,7 @@ def main(
         no_trans=no_trans,
         edge_factor=edge_factor,
         max_gap=max_gap,
+        robust=robust,
     )
     for w in result.warnings:
         tool.warn(w)
@@ -139,6 +150,6 @@ def main(
     lams += " outside the --segment spans" if segments else ""
     tool.info(
         f"{info['epochs']} GNSS epochs ({info['not_fixed']} not fixed), lambda x/y/z {lams}, "
-        f"{info['filled_rows']} row(s) bridged across gaps"
+        f"{info['filled_rows']} row(s) bridged across gaps, {info['downweighted']} outlying fix(es) weighted down"
     )
     tool.write(with_columns(table, result.columns), meta, {**tool.params, "lambda_used": info["lambda"]})

@@ -20,6 +20,8 @@ from sportfusion.climbing.particles import PFParams, PFResult, run_particle_filt
 from sportfusion.climbing.transition import TransitionParams, TransitionResult, estimate_transitions
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.magdisturb import describe as describe_mag
+from sportfusion.core.magdisturb import mag_disturbed
 
 IMU = tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz")
 
@@ -41,6 +43,10 @@ class TrackOptions:
         Output the smoother (True) or the filter.
     pf, transition
         Parameters of the two stages.
+    saturation_margin : float
+        Samples within this time [s] of a saturated (clipped) sample are treated as saturated too (default 0:
+        a wider mask changed which start hold the filter settles on in clean simulated trials)
+        (the rest of the impact burst; policy in docs/faults.md).
     """
 
     route: str | None = None
@@ -49,6 +55,7 @@ class TrackOptions:
     smooth: bool = True
     pf: PFParams = field(default_factory=PFParams)
     transition: TransitionParams = field(default_factory=TransitionParams)
+    saturation_margin: float = 0.0
 
 
 @dataclass
@@ -141,6 +148,26 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     ):
         warnings.append("the session's frame differs from the hold map's; x y z are in the hold map's frame")
 
+    # magnetic disturbances (core.magdisturb): disturbed samples are skipped by the orientation filter
+    f_ref = np.asarray(holds.magnetic_field, dtype=float)
+    up = np.asarray(holds.up, dtype=float)
+    dip = float(np.degrees(np.arccos(np.clip(-f_ref @ up / (np.linalg.norm(f_ref) * np.linalg.norm(up)), -1, 1))))
+    dist = mag_disturbed(t, mag, None, acc[rows], dip, float(holds.gravity), gyr[rows])
+    if dist.any():
+        mag = mag.copy()
+        mag[dist] = np.nan
+        warnings.append(describe_mag(int(dist.sum()), t, dist) + ": those samples are skipped")
+    if sat.any() and o.saturation_margin > 0:
+        # an impact that clips also disturbs the samples around it (the rest of the burst): widen the mask
+        ts = t[sat]
+        j = np.clip(np.searchsorted(ts, t), 1, ts.size)
+        m = o.saturation_margin
+        sat = (np.abs(t - ts[j - 1]) <= m) | (np.abs(t - ts[np.minimum(j, ts.size - 1)]) <= m)
+    if sat.any():
+        warnings.append(
+            f"IMU saturated (clipped at the sensor range) in {int(sat.sum())} sample(s): "
+            "their transitions get inflated noise"
+        )
     tr = estimate_transitions(
         t, acc[rows], gyr[rows], mag, grip, holds.magnetic_field, -holds.gravity * holds.up, sat, o.transition
     )

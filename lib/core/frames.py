@@ -49,6 +49,10 @@ __all__ = [
     "Frame",
     "AXES",
     "GNSS_COLUMNS",
+    "HEIGHT_REFS",
+    "Heights",
+    "track_heights",
+    "auto_origin",
     "METHODS",
     "geodetic_to_ned",
     "ned_to_geodetic",
@@ -67,8 +71,12 @@ __all__ = [
 
 #: Axis description written into the ``frame`` metadata.
 AXES = "x forward, y right, z down"
-#: Columns gps2hill converts: latitude [deg], longitude [deg], ellipsoidal height [m].
-GNSS_COLUMNS = ("lat", "lon", "h")
+#: Columns gps2hill needs: latitude [deg], longitude [deg]; heights come from ``h`` / ``h_msl`` where present.
+GNSS_COLUMNS = ("lat", "lon")
+#: Height references of a frame (``frame.height_ref``) and of ``gnss_z``: WGS84 ellipsoidal heights,
+#: heights above mean sea level (a local frame on an MSL-only track, ``--origin auto``), or none (a 2-D
+#: track: ``gnss_z`` null).  A hill frame is always ellipsoidal.
+HEIGHT_REFS = ("ellipsoidal", "msl", "none")
 #: Geodetic -> NED methods: the exact pyproj pipeline, or the paper's eqs 27-29.
 METHODS = ("pyproj", "paper")
 
@@ -86,6 +94,7 @@ class Frame:
     h: float
     azimuth_deg: float = 0.0
     name: str = "local"
+    height_ref: str = "ellipsoidal"
 
     def __post_init__(self) -> None:
         vals = (self.lat, self.lon, self.h, self.azimuth_deg)
@@ -93,20 +102,31 @@ class Frame:
             raise InputError(f"frame origin/azimuth must be finite numbers, got {vals}")
         if not -90 <= self.lat <= 90 or not -180 <= self.lon <= 360:
             raise InputError(f"frame origin ({self.lat}, {self.lon}) is not a latitude/longitude in degrees")
+        if self.height_ref not in HEIGHT_REFS:
+            raise InputError(
+                f"frame height reference {self.height_ref!r} is unknown, expected {', '.join(HEIGHT_REFS)}"
+            )
 
     @property
     def origin(self) -> tuple[float, float, float]:
         return (float(self.lat), float(self.lon), float(self.h))
 
     def to_meta(self) -> dict[str, Any]:
-        """The ``frame`` metadata entry: name, origin, azimuth_deg, axes."""
-        return {"name": self.name, "origin": list(self.origin), "azimuth_deg": float(self.azimuth_deg), "axes": AXES}
+        """The ``frame`` metadata entry: name, origin, azimuth_deg, axes, height_ref (see :data:`HEIGHT_REFS`)."""
+        return {
+            "name": self.name,
+            "origin": list(self.origin),
+            "azimuth_deg": float(self.azimuth_deg),
+            "axes": AXES,
+            "height_ref": self.height_ref,
+        }
 
     @classmethod
     def from_meta(cls, frame: Mapping[str, Any]) -> Frame:
         """Frame from a table's ``frame`` metadata."""
         lat, lon, h = frame["origin"]
-        return cls(float(lat), float(lon), float(h), float(frame["azimuth_deg"]), str(frame.get("name", "local")))
+        ref = str(frame.get("height_ref", "ellipsoidal"))
+        return cls(float(lat), float(lon), float(h), float(frame["azimuth_deg"]), str(frame.get("name", "local")), ref)
 
     def from_geodetic(
         self, lat: np.ndarray, lon: np.ndarray, h: np.ndarray, method: str = "pyproj"
@@ -281,39 +301,163 @@ def rotate_horizontal_sigmas(
     return np.sqrt(out[..., 0, 0]), np.sqrt(out[..., 1, 1])
 
 
-def gnss_local_columns(table: pa.Table, frame: Frame, method: str = "pyproj") -> dict[str, np.ndarray]:
+@dataclass
+class Heights:
+    """The heights of a GNSS track as :func:`track_heights` found them.
+
+    Attributes
+    ----------
+    ellipsoidal : numpy.ndarray
+        WGS84 ellipsoidal height per row [m], NaN where unknown.
+    msl : numpy.ndarray
+        Height above mean sea level per row [m] (``h_msl``), NaN where unknown.
+    ref : str
+        Best reference of the track, one of :data:`HEIGHT_REFS`.
+    geoid_offset_m : float or None
+        Geoid separation N [m] used to turn ``h_msl`` into ``h`` (None: not used).
+    geoid_source : str or None
+        Where N came from: ``"--geoid-offset"`` or ``"receiver"`` (median of ``h - h_msl`` over
+        the rows that have both, i.e. the receiver's own geoid separation).
+    """
+
+    ellipsoidal: np.ndarray
+    msl: np.ndarray
+    ref: str
+    geoid_offset_m: float | None = None
+    geoid_source: str | None = None
+
+
+def track_heights(table: pa.Table, geoid_offset: float | None = None) -> Heights:
+    """Ellipsoidal heights of a track from ``h`` and ``h_msl``, never mixing the two silently.
+
+    ``h`` (ellipsoidal) is used where it has a value.  Rows with only ``h_msl``
+    get ``h = h_msl + N`` with ``N`` = ``geoid_offset`` [m] when given, else the
+    receiver's own separation (median of ``h - h_msl`` where a row has both,
+    e.g. NMEA GGA fixes with and without the separation field).  Without
+    either, such rows have no ellipsoidal height and the track's reference is
+    ``"msl"`` (if no row has ``h``) - never ``h_msl`` passed off as ``h``.
+
+    Parameters
+    ----------
+    table : pyarrow.Table
+        Session with ``h`` and/or ``h_msl`` [m] (either may be missing).
+    geoid_offset : float, optional
+        Geoid separation N at the site [m] (``h = h_msl + N``).
+    """
+    n = table.num_rows
+    h = schema.floats(table, "h") if "h" in table.column_names else np.full(n, np.nan)
+    msl = schema.floats(table, "h_msl") if "h_msl" in table.column_names else np.full(n, np.nan)
+    if geoid_offset is not None and not math.isfinite(geoid_offset):
+        raise InputError(f"geoid offset {geoid_offset} is not a finite number of metres")
+    only_msl = ~np.isfinite(h) & np.isfinite(msl)
+    both = np.isfinite(h) & np.isfinite(msl)
+    offset, source = None, None
+    if only_msl.any() and geoid_offset is not None:
+        offset, source = float(geoid_offset), "--geoid-offset"
+    elif only_msl.any() and both.any():
+        offset, source = float(np.median(h[both] - msl[both])), "receiver"
+    if offset is not None:
+        h = np.where(only_msl, msl + offset, h)
+    ref = "ellipsoidal" if np.isfinite(h).any() else ("msl" if np.isfinite(msl).any() else "none")
+    return Heights(h, msl, ref, offset, source)
+
+
+def auto_origin(table: pa.Table, heights: Heights | None = None) -> tuple[float, float, float, str]:
+    """``--origin auto``: the first fix of the track as the frame origin.
+
+    The first row (in time) with ``lat`` and ``lon`` - and a valid fix
+    (``gnss_fix`` > 0) where the table has ``gnss_fix`` - and a height of the
+    track's best reference (:func:`track_heights`): ellipsoidal, else MSL; a
+    2-D track takes height 0 m (reference ``"none"``; the horizontal scale
+    error of that choice is h/R, 0.03 % at 2000 m).
+
+    Returns
+    -------
+    lat, lon : float
+        Origin [deg].
+    h : float
+        Origin height [m] in the reference returned.
+    ref : str
+        One of :data:`HEIGHT_REFS`.
+    """
+    hts = heights if heights is not None else track_heights(table)
+    lat, lon = schema.floats(table, "lat"), schema.floats(table, "lon")
+    ok = np.isfinite(lat) & np.isfinite(lon)
+    if "gnss_fix" in table.column_names:
+        fix = schema.floats(table, "gnss_fix")
+        if (ok & (fix > 0)).any():
+            ok &= fix > 0
+    z = {"ellipsoidal": hts.ellipsoidal, "msl": hts.msl, "none": np.zeros(lat.shape)}[hts.ref]
+    with_h = ok & np.isfinite(z)
+    if not with_h.any():
+        raise InputError("no row has both lat and lon; expected GNSS fixes for --origin auto")
+    i = int(np.argmax(with_h))
+    return float(lat[i]), float(lon[i]), float(z[i]), hts.ref
+
+
+def gnss_local_columns(
+    table: pa.Table, frame: Frame, method: str = "pyproj", geoid_offset: float | None = None
+) -> dict[str, np.ndarray]:
     """GNSS columns of a session in a local frame (what ``gps2hill`` adds).
 
     Parameters
     ----------
     table : pyarrow.Table
-        Session with ``lat lon`` [deg] and ``h`` [m] (null where the receiver
-        gave no fix) and optionally sigmas: ``gnss_sigma_n gnss_sigma_e``
-        [m] (with ``gnss_sdne``, RTKLIB's signed square root of the
-        north-east covariance [m]), else ``gnss_sigma_h`` [m, per axis];
+        Session with ``lat lon`` [deg] and heights ``h`` (ellipsoidal) and/or
+        ``h_msl`` [m] (null where the receiver gave no fix; see
+        :func:`track_heights`) and optionally sigmas: ``gnss_sigma_n
+        gnss_sigma_e`` [m] (with ``gnss_sdne``, RTKLIB's signed square root of
+        the north-east covariance [m]), else ``gnss_sigma_h`` [m, per axis];
         ``gnss_sigma_v`` [m].
     frame : Frame
-        Target frame.
+        Target frame.  Its ``height_ref`` decides which heights are used:
+        ``"ellipsoidal"`` needs ellipsoidal heights (MSL-only tracks are
+        refused, naming ``--geoid-offset``); ``"msl"`` uses ``h_msl``;
+        ``"none"`` (or a track without any height) gives ``gnss_z`` null and
+        places every fix at the origin's height for x and y.
     method : {"pyproj", "paper"}
         See :func:`geodetic_to_local`.
+    geoid_offset : float, optional
+        Geoid separation N [m] for rows with only ``h_msl`` (``h = h_msl + N``).
 
     Returns
     -------
     dict
-        ``gnss_x gnss_y gnss_z`` [m] (NaN -> null where lat/lon/h is null), and
-        ``std_gnss_x std_gnss_y`` / ``std_gnss_z`` [m] where the sigmas exist.
-        Horizontal sigmas are rotated by the azimuth (per-axis ``gnss_sigma_h``
-        is rotation invariant); the vertical sigma carries over to z.
-        Velocities are not touched (``vel_n vel_e vel_d`` stay NED).
+        ``gnss_x gnss_y gnss_z`` [m] (NaN -> null where lat/lon (or the
+        height) is null), and ``std_gnss_x std_gnss_y`` / ``std_gnss_z`` [m]
+        where the sigmas exist.  Horizontal sigmas are rotated by the azimuth
+        (per-axis ``gnss_sigma_h`` is rotation invariant); the vertical sigma
+        carries over to z.  Velocities are not touched (``vel_n vel_e vel_d`` stay NED).
     """
-    schema.require_columns(table, GNSS_COLUMNS, "gps2hill (WGS84 latitude, longitude, ellipsoidal height)")
-    lat, lon, h = (schema.floats(table, c) for c in ("lat", "lon", "h"))
+    schema.require_columns(table, GNSS_COLUMNS, "gps2hill (WGS84 latitude and longitude)")
+    lat, lon = (schema.floats(table, c) for c in ("lat", "lon"))
+    if not (np.isfinite(lat) & np.isfinite(lon)).any():
+        raise InputError("no row has both lat and lon; expected GNSS fixes to convert")
+    hts = track_heights(table, geoid_offset)
+    two_d = frame.height_ref == "none" or hts.ref == "none"
+    if two_d:
+        h = np.full(lat.shape, frame.h)
+    elif frame.height_ref == "msl":
+        if not np.isfinite(hts.msl).any():
+            raise InputError(
+                "the frame's heights are above mean sea level but the table has no h_msl; "
+                "expected heights above mean sea level (or give --origin auto)"
+            )
+        h = hts.msl
+    elif hts.ref == "msl":
+        n_msl = int(np.isfinite(hts.msl).sum())
+        raise InputError(
+            f"the track has heights above mean sea level only (h_msl, {n_msl} rows) and the frame's origin is "
+            "ellipsoidal; give --geoid-offset M (geoid separation N at the site, h = h_msl + N) or --origin auto"
+        )
+    else:
+        h = hts.ellipsoidal
     ok = np.isfinite(lat) & np.isfinite(lon) & np.isfinite(h)
-    if not ok.any():
-        raise InputError("no row has all of lat, lon and h; expected GNSS fixes to convert")
     x = np.full(lat.shape, np.nan)
     y, z = x.copy(), x.copy()
     x[ok], y[ok], z[ok] = frame.from_geodetic(lat[ok], lon[ok], h[ok], method)
+    if two_d:
+        z[:] = np.nan
     out = {"gnss_x": x, "gnss_y": y, "gnss_z": z}
     names = set(table.column_names)
     sx = sy = None
@@ -332,7 +476,7 @@ def gnss_local_columns(table: pa.Table, frame: Frame, method: str = "pyproj") ->
         sy = ry if sy is None else np.where(have, ry, sy)
     if sx is not None:
         out["std_gnss_x"], out["std_gnss_y"] = sx, sy
-    if "gnss_sigma_v" in names:
+    if "gnss_sigma_v" in names and not two_d:
         out["std_gnss_z"] = schema.floats(table, "gnss_sigma_v")
     return out
 
@@ -347,13 +491,17 @@ def gnss_to_frame(
     frame: Frame,
     method: str = "pyproj",
     hill_meta: dict[str, Any] | None = None,
+    geoid_offset: float | None = None,
 ) -> tuple[pa.Table, dict[str, Any]]:
     """``gps2hill``: add the GNSS columns in ``frame`` and record the frame in the metadata.
 
     Columns from :func:`gnss_local_columns` are added (replacing earlier
     ones); every other column, ``vel_n vel_e vel_d`` included, passes through.
-    ``meta["frame"]`` becomes ``frame.to_meta()`` and ``meta["hill"]`` the
-    hill's metadata when one is given.
+    ``meta["frame"]`` becomes ``frame.to_meta()`` plus ``gnss_z_ref`` (the
+    height reference of ``gnss_z``: ``"none"`` for a 2-D track) and, where
+    ``h_msl`` was turned into ``h``, ``geoid_offset_m`` and ``geoid_source``;
+    ``meta["hill"]`` the hill's metadata when one is given.  ``geoid_offset``
+    [m]: see :func:`track_heights`.
 
     Raises
     ------
@@ -371,10 +519,15 @@ def gnss_to_frame(
                 f"the table already holds estimates in frame origin {old['origin']}, azimuth {old['azimuth_deg']} deg; "
                 "converting GNSS into another frame would mix frames, expected the same --origin/--azimuth"
             )
-    cols = gnss_local_columns(table, frame, method)
+    cols = gnss_local_columns(table, frame, method, geoid_offset)
     out = with_columns(table, cols)
     new_meta = dict(meta)
     new_meta["frame"] = frame.to_meta()
+    hts = track_heights(table, geoid_offset)
+    new_meta["frame"]["gnss_z_ref"] = "none" if hts.ref == "none" else frame.height_ref
+    if hts.geoid_offset_m is not None and frame.height_ref == "ellipsoidal":
+        new_meta["frame"]["geoid_offset_m"] = hts.geoid_offset_m
+        new_meta["frame"]["geoid_source"] = hts.geoid_source
     if hill_meta is not None:
         new_meta["hill"] = hill_meta
     return out, new_meta

@@ -99,18 +99,23 @@ def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
 
     A field's unit comes from ``meta["units"][name]`` when the session declares
     one (a magnetometer normalised to the local field has unit ``"1"``), else
-    from the column registry.
+    from the column registry.  Height columns also get ``height_ref``:
+    ``h`` ellipsoidal, ``h_msl`` msl, ``gnss_z`` the frame's ``gnss_z_ref``.
 
     This is the one place metadata is attached: pyarrow drops schema metadata
     whenever a table is rebuilt from arrays, so every writer goes through here.
     """
     overrides = meta.get("units") or {}
+    frame = meta.get("frame") or {}
+    height_ref = {"h": "ellipsoidal", "h_msl": "msl", "gnss_z": frame.get("gnss_z_ref", frame.get("height_ref"))}
     fields = []
     for field in table.schema:
         unit = overrides.get(field.name, schema.unit_of(field.name))
         md = dict(field.metadata or {})
         if unit is not None:
             md[b"unit"] = unit.encode()
+        if height_ref.get(field.name):  # what a height is measured from (docs/recordings-gnss.md)
+            md[b"height_ref"] = str(height_ref[field.name]).encode()
         fields.append(field.with_metadata(md or None))
     md = dict(table.schema.metadata or {})
     md.pop(b"pandas", None)

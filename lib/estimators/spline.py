@@ -38,6 +38,7 @@ from scipy.linalg import solve_banded, solveh_banded
 from scipy.optimize import minimize_scalar
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.session import time_step_problem
 
 __all__ = [
     "NaturalCubicSpline",
@@ -439,7 +440,8 @@ def smoothing_spline(
         raise InputError(f"a smoothing spline needs at least 2 epochs with a position, got {n}")
     h = np.diff(t)
     if not np.all(h > 0) or not np.all(np.isfinite(y2)):
-        raise InputError("epoch times must be strictly increasing and positions finite")
+        problem = time_step_problem(t) or "a position that is not finite"
+        raise InputError(f"epoch times must be strictly increasing and positions finite: {problem}")
     W = np.ones((n, d)) if w is None else np.broadcast_to(np.asarray(w, float).reshape(n, -1), (n, d))
     if not np.all(W > 0) or not np.all(np.isfinite(W)):
         raise InputError("spline weights must be positive and finite")

@@ -117,7 +117,8 @@ def run_eks(
     Parameters
     ----------
     t : ndarray (N,)
-        Step times [s] (uniform).
+        Step times [s], increasing; uniform in the normal case, longer steps where the IMU dropped
+        samples or stopped (each step uses its own length).
     acc : ndarray (N, 3)
         Gravity-removed acceleration in the global frame at the steps [m/s^2].
     g : float
@@ -138,8 +139,17 @@ def run_eks(
     """
     p = params or EKSParams()
     n = t.size
-    dt = float(np.median(np.diff(t)))
-    Phi, Qd = transition(dt, p)
+    # the real time step of every step (a dropped sample or a gap makes a longer one: the constant-acceleration
+    # model bridges it with the process noise of its length); one transition per distinct step length
+    steps = np.diff(t)
+    cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def trans(k: int) -> tuple[np.ndarray, np.ndarray]:
+        key = round(float(steps[k]), 9)
+        if key not in cache:
+            cache[key] = transition(key, p)
+        return cache[key]
+
     gv = np.array([0.0, 0.0, g])
     R_acc = np.full(3, p.sigma_acc**2)
     R_zupt = np.full(3, p.sigma_zupt**2)
@@ -153,6 +163,7 @@ def run_eks(
         by_step.setdefault(int(an.k), []).append(an)
 
     def propagate(k: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        Phi, Qd = trans(k)
         return Phi @ x, Phi, Qd
 
     def measure(k: int, x: np.ndarray) -> list[Measurement]:

@@ -162,3 +162,82 @@ def default_calibration(moment: float = DEFAULT_MOMENT) -> MagnetCalibration:
     """The cube law calibrated from :func:`simulated_calibration_table` (the simulator's magnet)."""
     d, b = simulated_calibration_table(moment)
     return fit_calibration(d, b, source=f"simulated magnet, moment {moment:g} A m^2")
+
+
+def _direction_features(u: np.ndarray) -> np.ndarray:
+    """Constant, linear and quadratic terms of the field direction ``u`` (n, 3) -> (n, 9)."""
+    x, y, z = u[:, 0], u[:, 1], u[:, 2]
+    return np.column_stack([np.ones_like(x), x, y, z, x * x, y * y, x * y, x * z, y * z])
+
+
+def self_calibrated_norm(mag: np.ndarray, iterations: int = 4, tukey_c: float = 4.685) -> tuple[np.ndarray, float]:
+    """``|B|`` divided by the norm a miscalibrated magnetometer shows in the same direction.
+
+    A magnetometer with scale (soft-iron) errors of a few per cent and an
+    offset (hard iron) of a few uT reports a field norm that changes with the
+    sensor's orientation: a uniform field of norm ``F`` measured as
+    ``m = S R^T b + o`` has ``|m| ~ F (1 + u^T (S - I) u) + u^T o`` to first
+    order, a quadratic function of the measured direction ``u = m / |m|``.
+    That function is fitted to the recording itself (least squares on the
+    constant, linear and quadratic terms of ``u``, iteratively reweighted with
+    Tukey's biweight on the residual over 1.4826 MAD, so the short magnet
+    peaks -- a few per cent of the samples -- do not pull it), and ``|m|`` is
+    divided by it.  On a well calibrated sensor the fit is flat and the
+    result is ``|m| / median|m|``; without any magnet it is ~1 everywhere,
+    whatever the orientation.  Across outlying samples (weight 0) the
+    expected norm is interpolated from the neighbouring inliers, so a magnet
+    pass is measured against the field just before and after it, not
+    against the model at the direction the magnet bent the field into.
+    Orientations the recording never visits are
+    never evaluated, so a poorly conditioned fit (little motion) does no harm
+    (a small ridge term keeps it solvable).
+
+    Parameters
+    ----------
+    mag : ndarray, shape (n, 3)
+        Magnetic field samples, body frame [uT or normalised].
+    iterations : int
+        Reweighting passes.
+    tukey_c : float
+        Tukey biweight constant [robust sigmas].
+
+    Returns
+    -------
+    b : ndarray, shape (n,)
+        Field norm over the orientation-dependent expected norm [1].
+    spread : float
+        Relative 1-sigma (1.4826 MAD) of the orientation-dependent norm before
+        the correction, ``|m|/median - 1`` [1] (how far the sensor was from a
+        calibrated one).
+    """
+    n = np.linalg.norm(mag, axis=1)
+    med = float(np.median(n)) if n.size else 1.0
+    if not np.isfinite(med) or med <= 0:
+        return np.ones_like(n), 0.0
+    y = n / med
+    u = mag / np.maximum(n, 1e-12)[:, None]
+    feats = _direction_features(u)
+    w = np.ones_like(y)
+    ridge = 1e-6 * max(1, y.size)
+    fit = np.ones_like(y)
+    for _ in range(iterations):
+        a = feats * w[:, None]
+        lhs = feats.T @ a + ridge * np.eye(feats.shape[1])
+        rhs = a.T @ y
+        coef = np.linalg.solve(lhs, rhs)
+        fit = feats @ coef
+        r = y - fit
+        s = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+        if not np.isfinite(s) or s <= 0:
+            break
+        z = r / (tukey_c * s)
+        w = np.where(np.abs(z) < 1, (1 - z * z) ** 2, 0.0)
+    # Where a sample is an outlier (a magnet pass bends the measured direction too), the expected norm is
+    # interpolated from the neighbouring inliers instead of being evaluated at the bent direction.
+    out = w <= 0.0
+    if out.any() and (~out).sum() >= 2:
+        idx = np.arange(y.size)
+        fit = fit.copy()
+        fit[out] = np.interp(idx[out], idx[~out], fit[~out])
+    spread = 1.4826 * float(np.median(np.abs(fit - np.median(fit))))
+    return y / np.where(fit > 0.2, fit, 1.0), spread

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.gaps import describe_gaps
 from sportfusion.core.rotations import euler_from_quat
 from sportfusion.gates.anchors import (
     MatchParams,
@@ -476,6 +477,8 @@ def gate_anchor_table(
         **res.passes,
         "turns": res.turns,
     }
+    gap_line = describe_gaps("IMU", t[imu], 0.05)
+    meta["gate_anchor"]["warnings"] = [gap_line] if gap_line else []
     msg = (
         f"{res.passes['matched_final']} of {cr['t'].size} crossings matched to {xyz.shape[0]} gates, "
         f"{res.passes['anchors_final']} anchors, {len(res.turns)} turns"

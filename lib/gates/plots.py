@@ -8,15 +8,16 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.plots import _col, _new_figure
+from sportfusion.core.plots import _col, _new_figure, legend_outside, place_labels, stretch_factor
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def gates_figure(table: pa.Table, gates: pa.Table, title: str = "", width: float = 8.0) -> Figure:
-    """Top view of an alpine course: surveyed gates, the trajectory, and the gate crossings (anchors)
-    joined to the gate they were matched to.
+def gates_figure(table: pa.Table, gates: pa.Table, title: str = "", width: float = 9.0) -> Figure:
+    """Top view of an alpine course: surveyed gates (numbered, labels placed clear of each other and of the
+    path), the trajectory, and the gate crossings (anchors) joined to the gate they were matched to; the
+    across-slope axis is stretched by the factor on its label when the course is long and thin.
 
     Parameters
     ----------
@@ -38,24 +39,35 @@ def gates_figure(table: pa.Table, gates: pa.Table, title: str = "", width: float
     m = np.isfinite(x) & np.isfinite(y)
     # plan view with the fall line (x) downwards on the page
     ax.plot(y[m], x[m], "-", lw=1.0, color="tab:blue", label="trajectory")
-    ax.plot(gxy[:, 1], gxy[:, 0], "^", ms=7, color="tab:red", label="surveyed gate (magnet)")
-    for g, (gxv, gyv) in zip(gid, gxy, strict=True):
-        ax.annotate(str(g), (gyv, gxv), textcoords="offset points", xytext=(5, 0), fontsize=7)
+    ax.plot(gxy[:, 1], gxy[:, 0], "^", ms=7, color="tab:red", label="surveyed gate (magnet), numbered")
+    avoid = [np.column_stack([y[m], x[m]])]
     if "event" in table.column_names:
         ev = np.array([e == "gate" for e in table.column("event").to_pylist()])
-        ax.plot(y[ev], x[ev], "o", ms=4, mfc="none", color="k", label="detected crossing")
-        if "gate" in table.column_names:
-            matched = np.asarray(table.column("gate").to_numpy(zero_copy_only=False), float)
-            lookup = {int(g): p for g, p in zip(gid, gxy, strict=True)}
-            for i in np.flatnonzero(ev):
-                if np.isfinite(matched[i]) and int(matched[i]) in lookup:
-                    p = lookup[int(matched[i])]
-                    ax.plot([y[i], p[1]], [x[i], p[0]], "-", lw=0.7, color="tab:green")
+        matched = (
+            np.asarray(table.column("gate").to_numpy(zero_copy_only=False), float)
+            if "gate" in table.column_names
+            else np.full(table.num_rows, np.nan)
+        )
+        lookup = {int(g): p for g, p in zip(gid, gxy, strict=True)}
+        hit = ev & np.array([np.isfinite(v) and int(v) in lookup for v in matched])
+        ax.plot(y[hit], x[hit], "o", ms=4, mfc="none", color="k", label="detected crossing, matched")
+        for k, i in enumerate(np.flatnonzero(hit)):
+            p = lookup[int(matched[i])]
+            ax.plot([y[i], p[1]], [x[i], p[0]], "-", lw=0.9, color="tab:green", label="match" if k == 0 else None)
+        miss = ev & ~hit
+        if miss.any():
+            ax.plot(
+                y[miss], x[miss], "x", ms=6, mew=1.5, color="tab:purple", label="detected crossing, no gate matched"
+            )
+        avoid.append(np.column_stack([y[ev], x[ev]]))
+    # a course is long and thin: stretch the across-slope axis by a stated factor
+    f = stretch_factor(float(np.ptp(x[m])), float(np.ptp(np.r_[y[m], gxy[:, 1]]))) if m.any() else 1
     ax.invert_yaxis()
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("y (right of the fall line) [m]")
+    ax.set_aspect(1.0 / f, adjustable="datalim")
+    ax.set_xlabel(f"y (right of the fall line) [m], stretched ×{f}" if f > 1 else "y (right of the fall line) [m]")
     ax.set_ylabel("x (down the fall line) [m]")
     ax.grid(True, lw=0.4, alpha=0.6)
-    ax.legend(fontsize=8, loc="best")
-    ax.set_title(title or "course: gates, crossings (green: matched anchor) and trajectory")
+    legend_outside(ax)
+    ax.set_title(title or "course: gates, crossings and trajectory (plan view)")
+    place_labels(ax, gxy[:, ::-1], [f"{g}" for g in gid], avoid=np.vstack(avoid), colours=["tab:red"] * len(gid))
     return fig

@@ -13,7 +13,10 @@ Each format lives in its own module with two functions:
 
 :func:`combine` puts several recordings on one clock (UTC where they have
 it, plus per-input offsets) and merges them with
-:func:`sportfusion.core.session.merge_streams`.
+:func:`sportfusion.core.session.merge_streams`, which applies the one
+time-ordering policy of every format to each stream
+(:func:`sportfusion.core.session.order_by_time`): readers keep absolute times
+in file order and neither sort nor refuse out-of-order times themselves.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
-FORMATS = ("bouldering", "phyphox", "rtklib", "xsens", "nmea", "gpx", "csvmap")
+FORMATS = ("session", "bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "fit", "tcx", "nmea", "gpx", "csvmap")
 
 
 @dataclass
@@ -40,7 +43,8 @@ class Options:
     Attributes
     ----------
     geoid_offset : float or None
-        GPX: geoid separation N [m] added to ``<ele>`` (MSL) to get ellipsoidal h.
+        GPX, NMEA, FIT, TCX: geoid separation N [m] added to MSL heights (``<ele>``, a GGA without its
+        separation field, FIT/TCX altitude) to get ellipsoidal h.
     no_time : bool
         GPX: accept points without usable times; ``t`` is then the point index [s].
     column_map : dict
@@ -58,6 +62,9 @@ class Options:
         Bouldering dataset: folder of the hold map (``routes/``, ``start_handles.json``); default: searched.
     map_up : str
         Bouldering dataset: the hold map's up axis (``x y z -x -y -z``).
+    rate : float or None
+        Sampling rate [Hz] of an input whose file does not state one: Xsens exports
+        timed by PacketCounter, generic CSVs whose time column counts ticks.
     """
 
     geoid_offset: float | None = None
@@ -69,6 +76,7 @@ class Options:
     date: str | None = None
     hold_map: str | None = None
     map_up: str = "z"
+    rate: float | None = None
 
 
 @dataclass
@@ -110,8 +118,8 @@ def detect_format(path: Path) -> str:
         if _module(fmt).sniff(path, head):
             return fmt
     raise InputError(
-        f"{path}: format not recognised; expected phyphox (ZIP/folder), NMEA, GPX, RTKLIB .pos, "
-        "Xsens export, a bouldering trial folder, or a CSV with --map (or give --format)"
+        f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, FIT, TCX, "
+        "RTKLIB .pos, Xsens export, a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
     )
 
 
@@ -171,14 +179,33 @@ def combine(
     if offsets:
         raise InputError(f"--offset names {', '.join(offsets)}, which is not one of the inputs")
     table, report = merge_streams(streams)
-    for name, n in report.duplicates.items():
-        warnings.append(f"{name}: {n} repeated identical sample(s) folded into one row each")
+    for name, order in report.order.items():  # the time-ordering policy: core.session.order_by_time
+        if order.conflicts:
+            rows = ", ".join(f"index {i} at t = {t:.3f} s" for i, t in order.conflict_rows)
+            warnings.append(
+                f"{name}: {order.conflicts} sample(s) share a time with an earlier, different sample "
+                f"(first: {rows}); the earlier one (file order) is kept, the later only fills its empty columns"
+            )
+        if order.no_time:
+            first = ", ".join(str(i) for i in order.no_time_rows)
+            warnings.append(f"{name}: {order.no_time} sample(s) without a finite time dropped (first index: {first})")
     meta = sfmeta.new_meta("session", origin)
     meta.update({k: v for k, v in session.items() if k not in meta})
     for src in sources:
         prefix = src["file"] + ":"
         src["samples"] = {k[len(prefix) :]: v for k, v in report.rows.items() if k.startswith(prefix)}
+        src["time_order"] = {k[len(prefix) :]: v.counts() for k, v in report.order.items() if k.startswith(prefix)}
     meta["sources"] = sources
     if units:
         meta["units"] = units
     return table, meta, warnings
+
+
+def time_order_totals(meta: dict[str, Any]) -> dict[str, int]:
+    """Counts of the time-ordering policy summed over every stream of every source (``meta["sources"]``)."""
+    total: dict[str, int] = {}
+    for src in meta.get("sources", []):
+        for counts in (src.get("time_order") or {}).values():
+            for k, v in counts.items():
+                total[k] = total.get(k, 0) + int(v)
+    return total

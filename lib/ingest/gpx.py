@@ -2,14 +2,24 @@
 
 Only tracks are read (``<trk>/<trkseg>/<trkpt>``): every segment of every
 track, concatenated in file order.  Routes and waypoints are not
-trajectories and are ignored.
+trajectories and are ignored.  A point whose latitude or longitude is out of
+range (|lat| > 90, |lon| > 180, or not a number) makes the file unreadable:
+one error line names the point.
 
 Columns (units)
-    ``lat``, ``lon`` [deg]; ``h_msl`` [m] = ``<ele>`` (GPX elevations are
-    heights above mean sea level); ``h`` [m] ellipsoidal = ``<ele>`` +
-    ``Options.geoid_offset`` (``--geoid-offset N``) when given, else
-    ``<ele>`` + the point's own ``<geoidheight>`` when it has one, else null
-    with one warning (a point without ``<ele>`` has both null).
+    ``lat``, ``lon`` [deg].  Heights (docs/recordings-gnss.md): ``<ele>`` is
+    height above mean sea level by the GPX convention -> ``h_msl`` [m].  ``h``
+    [m] ellipsoidal is written only where it is known: ``<ele>`` +
+    ``Options.geoid_offset`` (``--geoid-offset N``) when given, else ``<ele>``
+    + the point's own ``<geoidheight>``.  A point without ``<ele>`` takes its
+    height from a vendor extension element when it has one: local names
+    ``altitude``/``alt``/``elevation``/``height`` are MSL (the GPX
+    convention), ``ellipsoidalAltitude``/``ellipsoidalHeight``/``hae`` are
+    ellipsoidal.  A track with no height at all has neither column (a 2-D
+    track: ``gps2hill`` gives it ``gnss_x``/``gnss_y`` with ``gnss_z`` null).
+    ``label`` (text): the ``<name>`` of the track a point belongs to (a ski app
+    writes one track per 'Lift', 'Downhill', 'Hold'), written when any track
+    has a name.
     ``gnss_speed`` [m/s] and ``gnss_course`` [deg] from ``<speed>``/
     ``<course>`` (GPX 1.0) or an extension element of that name (Garmin
     TrackPointExtension and the like), and then ``vel_n``/``vel_e`` [m/s]
@@ -18,14 +28,18 @@ Columns (units)
     the NMEA GGA codes: none 0, 2d 1, 3d 1, dgps 2, pps 3.
 
 Time
-    Every point needs a ``<time>``; times must increase (a repeated time is
-    accepted only for an exact repeat of the previous point, e.g. where two
-    segments meet; the merge folds it into one row).  Points without time,
-    all points at one time, or a time going backwards raise
-    :class:`~sportfusion.core.errors.InputError` naming the problem and pointing
-    to ``--no-time``.  With ``Options.no_time`` the point index is the time
-    (``t`` = 0, 1, 2, ... s), the recording has no absolute time and a
-    warning says so.  Times without a zone are taken as UTC.
+    Times are absolute (UTC; times without a zone are taken as UTC).  The
+    order of the points does not matter: a time that steps back or repeats
+    is handled by ingest's one time-ordering policy
+    (:func:`sportfusion.core.session.order_by_time`: stable sort, exact
+    duplicates dropped, same-time points folded, all counted).  Points
+    without a ``<time>`` get a NaN time, so the policy drops them and names
+    them in a warning; when fewer than two points (or fewer than half of
+    them) have a time, or all points share one time,
+    :class:`~sportfusion.core.errors.InputError` names the problem and
+    points to ``--no-time``.  With ``Options.no_time`` the point index is the
+    time (``t`` = 0, 1, 2, ... s), the recording has no absolute time and a
+    warning says so.
 """
 
 from __future__ import annotations
@@ -98,38 +112,23 @@ def read(path: Path, opts: Options) -> Recording:
     n = len(points)
     lat = np.array([p.latitude for p in points], dtype=np.float64)
     lon = np.array([p.longitude for p in points], dtype=np.float64)
-    ele = np.array([np.nan if p.elevation is None else p.elevation for p in points], dtype=np.float64)
+    _check_range(path, lat, lon)
 
     if opts.no_time:
         t = np.arange(n, dtype=np.float64)
         epoch = None
         warnings.append("--no-time: t is the track point index (1 s per point); the track has no absolute time")
     else:
-        t, epoch = _times(path, points, lat, lon, ele)
+        t, epoch = _times(path, points)
 
     cols: dict[str, object] = {"lat": lat, "lon": lon}
-    has_ele = bool(np.isfinite(ele).any())
-    if has_ele:
-        cols["h_msl"] = ele
-        if opts.geoid_offset is not None:
-            h = ele + float(opts.geoid_offset)
-        else:
-            geoid = np.array([np.nan if p.geoid_height is None else p.geoid_height for p in points])
-            h = ele + geoid
-            missing = int((np.isfinite(ele) & ~np.isfinite(geoid)).sum())
-            if missing:
-                warnings.append(
-                    f"<ele> is height above mean sea level: h (ellipsoidal) left null at {missing} of {n} point(s); "
-                    "give --geoid-offset M (geoid separation N at the site) for ellipsoidal h"
-                )
-        cols["h"] = h
-        finite = ele[np.isfinite(ele)]
-        if finite.size > 1 and (finite == 0.0).all():
-            warnings.append("every <ele> is 0 m: the logger probably wrote no elevation")
-    else:
-        cols["h_msl"] = ele
-        cols["h"] = np.full(n, np.nan)
-        warnings.append("no point has an <ele>: h and h_msl are null")
+    cols.update(_heights(points, opts, warnings))
+    names = [trk.name.strip() if trk.name and trk.name.strip() else None for trk in doc.tracks]
+    if any(names):
+        cols["label"] = pa.array(
+            [names[i] for i, trk in enumerate(doc.tracks) for seg in trk.segments for _ in seg.points],
+            type=pa.string(),
+        )
 
     speed = np.array([_first(p.speed, _extension_value(p, "speed")) for p in points], dtype=np.float64)
     course = np.array([_first(p.course, _extension_value(p, "course")) for p in points], dtype=np.float64)
@@ -166,36 +165,82 @@ def _first(*values: float | None) -> float:
     return math.nan
 
 
-def _times(
-    path: Path, points: list[Any], lat: np.ndarray, lon: np.ndarray, ele: np.ndarray
-) -> tuple[np.ndarray, float]:
-    """Seconds since the first point and that point's Unix time; InputError for unusable times."""
+def _check_range(path: Path, lat: np.ndarray, lon: np.ndarray) -> None:
+    """InputError naming the first point whose latitude or longitude is not a valid angle."""
+    bad = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{path}: track point {i} has latitude {lat[i]:g}, longitude {lon[i]:g} ({int(bad.sum())} such point(s)); "
+            "expected latitude -90..90 and longitude -180..180 degrees"
+        )
+
+
+#: Extension elements read as a height where a point has no ``<ele>``: MSL names, ellipsoidal names.
+_EXT_MSL = ("altitude", "alt", "elevation", "height")
+_EXT_ELLIPSOIDAL = ("ellipsoidalaltitude", "ellipsoidalheight", "hae")
+
+
+def _heights(points: list[Any], opts: Options, warnings: list[str]) -> dict[str, np.ndarray]:
+    """``h_msl`` and ``h`` [m] where known (see the module docstring); no column when none is known."""
+    n = len(points)
+    ele = np.array([np.nan if p.elevation is None else p.elevation for p in points], dtype=np.float64)
+    ext_msl = np.full(n, np.nan)
+    ext_ell = np.full(n, np.nan)
+    for i in np.flatnonzero(~np.isfinite(ele)):
+        p = points[i]
+        ext_ell[i] = _first(*(_extension_value(p, k) for k in _EXT_ELLIPSOIDAL))
+        ext_msl[i] = _first(*(_extension_value(p, k) for k in _EXT_MSL))
+    msl = np.where(np.isfinite(ele), ele, ext_msl)
+    if opts.geoid_offset is not None:
+        h = msl + float(opts.geoid_offset)
+    else:
+        geoid = np.array([np.nan if p.geoid_height is None else p.geoid_height for p in points])
+        h = msl + geoid
+    h = np.where(np.isfinite(h), h, ext_ell)
+    out: dict[str, np.ndarray] = {}
+    if np.isfinite(msl).any():
+        out["h_msl"] = msl
+        finite = msl[np.isfinite(msl)]
+        if finite.size > 1 and (finite == 0.0).all():
+            warnings.append("every <ele> is 0 m: the logger probably wrote no elevation")
+    if np.isfinite(h).any():
+        out["h"] = h
+    if not out:
+        warnings.append("no point has a height (<ele> or a height extension): a 2-D track, gnss_z will be null")
+    elif "h" not in out:
+        warnings.append(
+            "<ele> is height above mean sea level (h_msl), no ellipsoidal h: for a hill frame give "
+            "--geoid-offset M (geoid separation N at the site) here or to gps2hill"
+        )
+    return out
+
+
+def _times(path: Path, points: list[Any]) -> tuple[np.ndarray, float]:
+    """Seconds since the earliest point and that point's Unix time (NaN where a point has no time).
+
+    InputError when fewer than two points have a time or all share one time.
+    """
     hint = "or give --no-time to use the point index as time"
     n = len(points)
     missing = [i for i, p in enumerate(points) if p.time is None]
-    if missing:
+    timed = n - len(missing)
+    if missing and (timed < 2 or timed < len(missing)):
         raise InputError(
             f"{path}: {len(missing)} of {n} track point(s) have no <time> (first: point {missing[0]}); "
             f"expected a time on every point, {hint}"
         )
-    whole, frac = zip(*(_unix(p.time) for p in points), strict=True)
-    w = np.array(whole, dtype=np.int64)
-    f = np.array(frac, dtype=np.float64)
-    t = (w - w[0]).astype(np.float64) + (f - f[0])
-    if n > 1 and (t == t[0]).all():
+    whole = np.zeros(n, dtype=np.int64)
+    frac = np.full(n, np.nan)
+    for i, p in enumerate(points):
+        if p.time is not None:
+            whole[i], frac[i] = _unix(p.time)
+    timed_idx = np.flatnonzero(np.isfinite(frac))
+    i0 = int(timed_idx[np.lexsort((frac[timed_idx], whole[timed_idx]))[0]])  # the earliest point is the epoch
+    t = (whole - whole[i0]).astype(np.float64) + (frac - frac[i0])
+    ok = np.isfinite(t)
+    if timed > 1 and (t[ok] == 0.0).all():
         raise InputError(
-            f"{path}: all {n} track points have the same time {points[0].time}; expected increasing times, {hint}"
+            f"{path}: all {timed} track points have the same time {points[i0].time}; expected increasing times, {hint}"
         )
-    step = np.diff(t)
-    same = np.zeros(n - 1, dtype=bool)
-    if n > 1:
-        same_ele = (ele[1:] == ele[:-1]) | (np.isnan(ele[1:]) & np.isnan(ele[:-1]))
-        same = (lat[1:] == lat[:-1]) & (lon[1:] == lon[:-1]) & same_ele
-    bad = (step < 0) | ((step == 0) & ~same)
-    if bad.any():
-        i = int(np.argmax(bad)) + 1
-        raise InputError(
-            f"{path}: track point {i} at {points[i].time} is not later than point {i - 1} at {points[i - 1].time}; "
-            f"expected increasing times, {hint}"
-        )
-    return t - t[0], float(w[0]) + float(f[0])
+    return t, float(whole[i0]) + float(frac[i0])

@@ -1,10 +1,24 @@
 """NMEA 0183 logs (GPS loggers): GGA, RMC, VTG, GST, GNS and ZDA from any talker.
 
-Sentences are parsed with pynmea2; every line must carry a valid ``*hh``
-checksum.  Lines with a bad or missing checksum, or that cannot be parsed,
-are skipped and counted in one warning.  Other sentence types (GSA, GSV,
-TXT, proprietary ``$P...``) are valid but carry nothing this reader needs;
-they are counted in the recording's metadata.
+Sentences are parsed with pynmea2; every sentence must carry a valid ``*hh``
+checksum.  Real logs are not pure NMEA (docs/recordings-gnss.md): ``#``
+comment lines (receiver test logs) are skipped and counted in the metadata;
+a sentence may follow other text on its line (a logger's own time stamp,
+binary bytes of an interleaved binary protocol): it is read from its ``$``.
+Sentences with a bad or missing checksum, and lines that hold no sentence
+(binary junk), are skipped and counted in one warning.  Valid sentences this
+reader does not use (GSA, GSV, TXT, proprietary ``$P...`` at any rate, AIS
+``!AIVDM``, instrument talkers such as depth or wind) are counted in the
+recording's metadata and cost no parsing.
+
+Sniffing
+    By content, not by the first line: among the non-comment lines of the
+    first 16 KiB, at least one (three when there are that many lines) must
+    be a checksummed sentence, and they must be at least a quarter of the
+    lines (so a CSV or XML file never passes, and a log with a comment
+    header, interleaved binary or a logger's prefix does).  A file whose
+    lines are mostly sentence-shaped (``$GPGGA,...*hh``) with failing
+    checksums is claimed too, so the reader can say that the checksums fail.
 
 Epochs
     All sentences with the same UTC time of day form one sample, whichever
@@ -18,17 +32,18 @@ Date
     From RMC (``ddmmyy``, years < 80 are 20yy) or ZDA.  Epochs without a
     date of their own take it from the nearest dated epoch before them
     (after them at the start of the log), counting midnights in between.
-    A log without any RMC/ZDA date (GGA only) uses ``Options.date``
-    (``YYYY-MM-DD``) when given; otherwise the recording has no absolute
-    time (``epoch_utc`` None), ``t`` is seconds of the UTC day of the first
-    fix (+86400 per midnight) and a warning says so.
+    A log without any RMC/ZDA date (GGA only) needs ``Options.date``
+    (``--date YYYY-MM-DD``, the UTC date of the first fix): without it the
+    log is refused with one line naming ``--date`` (a time of day alone
+    cannot be placed on a clock, and guessing a date would be silent).
 
 Columns (units)
     ``lat``, ``lon`` [deg, signed, from ``ddmm.mmmm`` decimal minutes],
     ``h_msl`` [m] = altitude above mean sea level, ``h`` [m] = altitude +
     geoid separation (WGS84 ellipsoidal); when the separation field is empty
-    ``h`` stays null there, ``h_msl`` is kept and one warning says how many
-    fixes lack it.  ``gnss_fix``: GGA quality as written (0 invalid, 1 GPS,
+    ``h`` stays null there (``h_msl`` + ``Options.geoid_offset`` when
+    ``--geoid-offset`` is given), ``h_msl`` is kept and one warning says how
+    many fixes lack it.  ``gnss_fix``: GGA quality as written (0 invalid, 1 GPS,
     2 DGPS, 3 PPS, 4 RTK fixed, 5 RTK float, 6 dead reckoning, 7 manual,
     8 simulator); without GGA, the GNS/RMC mode indicator mapped onto the
     same codes (N 0, A 1, D 2, P 3, R 4, F 5, E 6, M 7, S 8; for GNS the best
@@ -76,7 +91,12 @@ _PRIORITY = {"GGA": 0, "GST": 0, "ZDA": 0, "GNS": 1, "RMC": 2, "VTG": 3}
 #: NMEA mode indicator (GNS, RMC >= 2.3) -> GGA quality code.
 MODE_TO_QUALITY = {"N": 0, "A": 1, "D": 2, "P": 3, "R": 4, "F": 5, "E": 6, "M": 7, "S": 8}
 _MODE_RANK = "RFDPAEMSN"  # best first, for GNS's one character per constellation
-_SNIFF = re.compile(rb"^\$[A-Z0-9]{3,}[^\r\n]*\*[0-9A-Fa-f]{2}\s*$")
+#: A checksummed sentence (``$`` or ``!`` for AIS encapsulation) anywhere in a line.
+_SENTENCE = re.compile(r"[$!]([A-Z0-9]{3,})([,*][^$!*\r\n]*)?\*([0-9A-Fa-f]{2})")
+_ADDRESS = re.compile(r"[$!][A-Z0-9]{3,},")
+_BINARY = re.compile("[\x00-\x08\x0e-\x1f\x7f\ufffd]")
+_SHAPED = re.compile(r"^[$!][A-Z0-9]{3,},[^*]*\*[0-9A-Fa-f]{2}$")
+SNIFF_BYTES = 16384
 _TIME = re.compile(r"^(\d{2})(\d{2})(\d{2}(?:\.\d*)?)$")
 _UNIX_DAY0 = dt.date(1970, 1, 1).toordinal()
 
@@ -98,12 +118,44 @@ FLOAT_COLUMNS = (
 INT_COLUMNS = ("gnss_fix", "gnss_sats")
 
 
+def _checksum_ok(sentence: str) -> bool:
+    """True when ``$...*hh`` (or ``!...*hh``) carries the XOR checksum of the text between."""
+    body, _, cs = sentence[1:].rpartition("*")
+    x = 0
+    for ch in body.encode("ascii", errors="replace"):
+        x ^= ch
+    try:
+        return x == int(cs[:2], 16)
+    except ValueError:
+        return False
+
+
+def find_sentences(line: str) -> list[str]:
+    """The checksummed NMEA sentences in a line (each from its ``$``/``!`` to ``*hh``), in order."""
+    return [m.group(0) for m in _SENTENCE.finditer(line) if _checksum_ok(m.group(0))]
+
+
 def sniff(path: Path, head: bytes) -> bool:
-    """True when the first non-empty line is an NMEA sentence with a ``*hh`` checksum."""
-    for line in head.lstrip(b"\xef\xbb\xbf").splitlines():
-        if line.strip():
-            return bool(_SNIFF.match(line.strip()))
-    return False
+    """True when checksummed sentences are a fair share of the first 16 KiB (see the module docstring)."""
+    if len(head) < SNIFF_BYTES and path.is_file():
+        try:
+            with path.open("rb") as fh:
+                head = fh.read(SNIFF_BYTES)
+        except OSError:
+            return False
+    text = head.decode("ascii", errors="replace")
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    if len(head) >= SNIFF_BYTES and len(lines) > 1:
+        lines = lines[:-1]  # the last line may be cut
+    lines = [ln for ln in lines if not ln.startswith("#")]
+    if not lines:
+        return False
+    valid = sum(bool(find_sentences(ln)) for ln in lines)
+    if valid >= min(3, len(lines)) and valid >= 0.25 * len(lines):
+        return True
+    # sentence-shaped lines whose checksums all fail: still NMEA, so the reader can say what is wrong
+    shaped = sum(bool(_SHAPED.search(ln)) for ln in lines)
+    return shaped >= 0.5 * len(lines)
 
 
 class _Bad(ValueError):
@@ -221,6 +273,9 @@ class _Log:
     sentences: dict[str, int] = field(default_factory=dict)
     talkers: set[str] = field(default_factory=set)
     ignored: int = 0
+    comments: int = 0
+    binary: int = 0
+    other_types: dict[str, int] = field(default_factory=dict)
 
     def epoch_at(self, sec: int, frac: float) -> _Epoch:
         tod = sec + frac
@@ -252,9 +307,29 @@ class _Log:
         line = line.strip().lstrip("\ufeff")
         if not line:
             return
+        if line.startswith("#"):
+            self.comments += 1
+            return
         self.lines += 1
-        if not line.startswith("$"):
-            self.unparsable += 1
+        found = find_sentences(line)
+        if not found:
+            if _ADDRESS.search(line):  # looks like a sentence: its checksum is bad or missing
+                self.bad_checksum += 1
+            elif _BINARY.search(line):
+                self.binary += 1
+            else:
+                self.unparsable += 1
+            return
+        for sentence in found:  # usually one; more where a logger lost a line break
+            self._one(sentence)
+
+    def _one(self, line: str) -> None:
+        head = line[1:].split(",", 1)[0].split("*", 1)[0]
+        kind = head[-3:] if not head.startswith("P") else head
+        if line.startswith("!") or kind not in USED:  # valid, but nothing this reader uses
+            self.ignored += 1
+            key = "!" + head if line.startswith("!") else head[:4] if head.startswith("P") else head[:2] + "/" + kind
+            self.other_types[key] = self.other_types.get(key, 0) + 1
             return
         try:
             msg = pynmea2.parse(line, check=True)
@@ -392,11 +467,12 @@ def read(path: Path, opts: Options) -> Recording:
     for line in raw.decode("ascii", errors="replace").splitlines():
         log.feed(line)
     warnings: list[str] = []
-    skipped = log.bad_checksum + log.unparsable + log.untimed
+    skipped = log.bad_checksum + log.unparsable + log.untimed + log.binary
     if not log.order:
         raise InputError(
             f"{path}: no timed GGA, GNS, RMC, GST or ZDA sentence with a valid checksum in {log.lines} line(s) "
-            f"({log.bad_checksum} with a bad or missing checksum, {log.unparsable} unparsable); expected an NMEA 0183 log"
+            f"({log.bad_checksum} with a bad or missing checksum, {log.unparsable} unparsable, {log.binary} binary); "
+            "expected an NMEA 0183 log"
         )
     if skipped:
         parts = [
@@ -404,6 +480,7 @@ def read(path: Path, opts: Options) -> Recording:
             for n, what in (
                 (log.bad_checksum, "with a bad or missing checksum"),
                 (log.unparsable, "unparsable"),
+                (log.binary, "binary (bytes that are not text)"),
                 (log.untimed, "without a UTC time"),
             )
             if n
@@ -411,31 +488,34 @@ def read(path: Path, opts: Options) -> Recording:
         warnings.append(f"skipped {skipped} of {log.lines} NMEA line(s): {', '.join(parts)}")
 
     days = _days(log, _parse_date(opts.date), warnings)
-    day = np.array([e.day for e in log.order], dtype=np.int64)
     sec = np.array([e.sec for e in log.order], dtype=np.int64)
     frac = np.array([e.frac for e in log.order])
     if days is None:
-        warnings.append(
-            "the log has no date (no RMC or ZDA sentence): times are seconds of the UTC day and the recording has "
-            "no absolute time; give the date (--date YYYY-MM-DD) to place it in UTC"
+        first = log.order[0]
+        hms = f"{first.sec // 3600:02d}:{first.sec // 60 % 60:02d}:{first.sec % 60:02d}"
+        raise InputError(
+            f"{path}: the log has times of day but no date (no RMC or ZDA sentence; first fix at {hms} UTC); "
+            "give --date YYYY-MM-DD, the UTC date of the first fix"
         )
-        epoch = None
-        t = ((day - day[0]) * 86400 + sec).astype(np.float64) + frac
-    else:
-        whole = (days - _UNIX_DAY0) * 86400 + sec
-        epoch = float(whole.min())
-        t = (whole - epoch).astype(np.float64) + frac
+    whole = (days - _UNIX_DAY0) * 86400 + sec
+    epoch = float(whole.min())
+    t = (whole - epoch).astype(np.float64) + frac
 
     cols, no_sep = _columns(log.order)
-    if no_sep:
+    if no_sep and opts.geoid_offset is not None:
+        h, msl = np.asarray(cols["h"]), np.asarray(cols["h_msl"])
+        cols["h"] = np.where(np.isfinite(h), h, msl + float(opts.geoid_offset))
+    elif no_sep:
         warnings.append(
             f"{no_sep} fix(es) have no geoid separation in GGA/GNS: ellipsoidal h is left null there and the "
-            "altitude above mean sea level is kept in h_msl"
+            "altitude above mean sea level is kept in h_msl (give --geoid-offset M, here or to gps2hill)"
         )
     meta = {
         "talkers": sorted(log.talkers),
         "sentences": dict(sorted(log.sentences.items())),
         "ignored_sentences": log.ignored,
+        "ignored_types": dict(sorted(log.other_types.items())),
+        "comment_lines": log.comments,
     }
     return Recording(str(path), "nmea", [Stream("nmea", t, cols)], epoch, meta, warnings)
 

@@ -29,6 +29,21 @@ Headers, matched by meaning (case, spacing and unit spelling free)
     set is skipped with a warning.  A set with no known column is skipped
     with a warning naming its headers.
 
+iOS dialect
+    Experiments made in the iOS app from sensors ("simple experiments",
+    phyphox-ios ``SimpleExperimentSerializer.swift``) write axis-only headers
+    ``X (m/s^2)``, ``X (rad/s)``, ``X (µT)``, ``X (hPa)`` in sets named
+    ``Accelerometer``, ``Linear Accelerometer``, ``Gyroscope``,
+    ``Magnetometer``, ``Barometer``; the unit says which sensor it is, a set
+    name with "linear" is linear acceleration.  Their Location set labels
+    ``Vertical Accuracy (°)`` although the value is in metres (the app's own
+    view shows it with unit m): read as metres, with a warning.
+
+Never sunk by one quirk
+    A column holding text is left out and named in a warning; a set that
+    cannot be read at all (no time column, not a table) is skipped with a
+    warning when the export has other sets.
+
 Clock
     Set times are seconds of experiment time.  ``meta/time.csv`` rows
     (``START``/``PAUSE`` with the system's Unix time) map experiment time to
@@ -56,7 +71,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.ingest._text import decode, floats, read_delimited, split_header, unit_factor
+from sportfusion.ingest._text import UNITS, decode, floats, read_delimited, split_header, unit_factor
 
 #: Radius of the 68 % circle of a circular Gaussian, in per-axis sigmas: sqrt(-2 ln 0.32).
 ACCURACY_68_TO_SIGMA = math.sqrt(-2.0 * math.log(0.32))
@@ -74,6 +89,12 @@ RULES: tuple[tuple[re.Pattern[str], str, str], ...] = tuple(
         (r"^(?:pressure|air pressure)$", "pressure", "Pa"),
         (r"^latitude$", "lat", "deg"),
         (r"^longitude$", "lon", "deg"),
+        # phyphox's Location "Height (m)" is its buffer z, height above mean sea level on both platforms;
+        # its buffer zwgs84 is ellipsoidal.  Android (phyphox/phyphox-android,
+        # app/src/main/java/de/rwth_aachen/phyphox/GpsInput.java): z = Location.getAltitude() (WGS84
+        # ellipsoid) minus the EGM84 geoid height of its GpsGeoid, zwgs84 = getAltitude().  iOS
+        # (phyphox/phyphox-ios, ExperimentGPSInput.swift): z = CLLocation.altitude (mean sea level),
+        # zwgs84 = z + GpsGeoid height.  So Height -> h_msl, Height WGS84 -> h.
         (r"^(?:altitude|height) ?\(?(?:wgs ?84|ellipsoidal)\)?$", "h", "m"),
         (r"^(?:altitude|height)$", "h_msl", "m"),
         (r"^(?:speed|velocity)$", "gnss_speed", "m/s"),
@@ -211,13 +232,47 @@ def _device(data: bytes, what: str) -> dict[str, Any]:
     return {str(k): (v if isinstance(v, (int, float)) else str(v)) for k, v in zip(keys, vals, strict=True) if k}
 
 
+#: An axis-only header (``X (m/s^2)``, the iOS "simple experiment" sets) -> sensor by the unit's quantity.
+_AXIS_ONLY = re.compile(r"^([xyz])$")
+_QUANTITY = {"m/s^2": "acc", "rad/s": "gyr", "uT": "mag", "Pa": "pressure"}
+
+
+def _axis_header(header: str, set_name: str) -> tuple[str, str, str] | None:
+    """``X (m/s^2)`` in set ``Accelerometer`` -> ``("acc_x", "m/s^2", "m/s^2")``; None when not such a header.
+
+    The unit says which sensor it is (m/s^2, rad/s, uT, hPa and the units that
+    convert to them); a set whose name says "linear" is linear acceleration.
+    """
+    name, unit = split_header(header)
+    m = _AXIS_ONLY.match(name)
+    if not m or not unit:
+        return None
+    canon = UNITS.get(unit, (None,))[0]
+    kind = _QUANTITY.get(canon or "")
+    if kind is None:
+        return None
+    if kind == "acc" and "linear" in set_name.lower():
+        return "linear", "", unit
+    if kind == "pressure":
+        return ("pressure", "Pa", unit) if m.group(1) == "x" else None
+    return f"{kind}_{m.group(1)}", canon or "", unit
+
+
 def _set_stream(name: str, data: bytes, warnings: list[str]) -> Stream | None:
-    """One set's CSV -> a stream of the columns it has (None when nothing is known)."""
-    table = read_delimited(decode(data), name)
+    """One set's CSV -> a stream of the columns it has (None when nothing is known).
+
+    A column holding text (an auxiliary column some experiments add) is left
+    out with a warning naming it; the rest of the set is read.
+    """
+    dropped: list[str] = []
+    table = read_delimited(decode(data), name, dropped=dropped)
+    if dropped:
+        warnings.append(f"{name}: column(s) {', '.join(dropped)} hold text, not numbers: not read")
+    stem = PurePosixPath(name).stem
     mapped: dict[str, tuple[str, str, str]] = {}
     unknown: list[str] = []
     for header in table.column_names:
-        hit = match_header(header)
+        hit = match_header(header) or _axis_header(header, stem)
         if hit is None:
             unknown.append(header)
         elif hit[0] == "linear":
@@ -246,6 +301,9 @@ def _set_stream(name: str, data: bytes, warnings: list[str]) -> Stream | None:
             continue
         v = floats(table, header)
         if col in ("gnss_sigma_h", "gnss_sigma_v"):
+            if unit in ("°", "deg"):  # iOS writes "Vertical Accuracy (°)" for a value in metres
+                warnings.append(f"{name}: {header!r} read as metres (phyphox labels this accuracy with a wrong unit)")
+                unit = "m"
             v = v * unit_factor(unit or "m", "m", f"{name}: {header}")
             if col == "gnss_sigma_h":
                 v = v / ACCURACY_68_TO_SIGMA
@@ -272,7 +330,17 @@ def read(path: Path, opts: Options) -> Recording:
     sets = {n: d for n, d in members.items() if not _is_meta(n)}
     if not sets:
         raise InputError(f"{path}: no set CSV in this phyphox export; expected e.g. Accelerometer.csv")
-    streams = [s for n, d in sets.items() if (s := _set_stream(n, d, warnings)) is not None]
+    streams = []
+    for n, d in sets.items():
+        try:
+            st = _set_stream(n, d, warnings)
+        except InputError as exc:
+            if len(sets) == 1:
+                raise
+            warnings.append(f"set not read: {exc}")
+            continue
+        if st is not None:
+            streams.append(st)
     if not streams:
         raise InputError(
             f"{path}: none of the sets ({', '.join(sets)}) has a known column; expected acceleration with g, "

@@ -1,28 +1,46 @@
-"""Xsens MT Manager text exports (MTw Awinda, MTi): one file per sensor.
+"""Xsens MT Manager text exports (MTw Awinda, MTi; MT Manager 4.x to 2022): one file per sensor.
 
-Layout: ``//`` header lines (``Start Time``, ``Update Rate: 100.0Hz``,
-``Filter Profile``, ``Option Flags``, ``Firmware Version``, ...), then one
-line of column names and the samples, tab-separated (semicolon or comma
-exports are detected as well; a trailing separator on every line is
-dropped).
+Layout: ``//`` header lines, then one line of column names and the samples.
+Old exports have a short header (``Start Time``, ``Update Rate: 100.0Hz``,
+``Filter Profile``, ``Option Flags``, ``Firmware Version``); MT Manager
+2019+ writes a long one (``// General information:``, ``//  MT Manager
+version: 2022.2.0``, ``// Device information:``, ``//  DeviceId``, ...,
+``// Coordinate system: ENU``) that often has no update rate.  Delimiter tab,
+comma, semicolon or space (detected; a trailing delimiter on every line is
+dropped); ``NaN`` and empty cells are nulls.
 
 Columns (units)
     ``Acc_X/Y/Z`` -> ``acc_x/y/z`` [m/s^2]; ``Gyr_X/Y/Z`` -> ``gyr_x/y/z``
     [rad/s]; ``Mag_X/Y/Z`` -> ``mag_x/y/z``, normalised to the local field at
     calibration (unit ``1``, declared in the metadata's ``units``);
-    ``Pressure`` -> ``pressure`` [Pa]; the orientation ``Quat_q0..q3`` (q0
-    scalar) or ``Mat[i][j]`` (matched by its indices, converted to a
-    quaternion) -> ``dev_q0..3``: Xsens' q_GS, rotating sensor-frame vectors
-    into the global frame (ENU unless the device was set to NED).  Other
-    columns (``FreeAcc_*``, Euler angles, status words, ...) are listed in the
-    metadata and not read.
+    ``Pressure`` -> ``pressure`` [Pa].  Orientation as ``Quat_q0..q3`` (q0
+    scalar), ``Mat[i][j]`` (matched by its indices) or Euler angles
+    ``Roll/Pitch/Yaw`` (or ``Euler_X/Y/Z``) [deg]: Xsens' q_GS / R_GS rotates
+    sensor-frame vectors into the global frame G that the header's
+    ``Coordinate system`` names (ENU, the default, NWU or NED; Euler angles
+    are z-y-x in G).  It is converted to the suite's convention (DESIGN.md,
+    :mod:`sportfusion.core.rotations`): ``q_BO`` maps NED into the sensor
+    (body) frame, scalar first, so ``M_BO = (C_NG R_GS)^T``.  Exports with
+    IMU columns keep it as the device's own orientation ``dev_q0..3``;
+    orientation-only exports give the attitude ``q0..q3``.  Other columns
+    (``FreeAcc_*``, status words, ...) are listed in the metadata and not read.
+
+Frame check
+    With ``Acc_*`` and/or ``Mag_*`` beside the orientation, the stated frame
+    is verified: the specific force rotated into NED must point up and the
+    horizontal magnetic field north (within 45 degrees: declination plus
+    disturbance).  When the stated (or default) frame fails and another of
+    ENU/NWU/NED passes, that one is used and a warning gives both headings.
 
 Time
     From ``SampleTimeFine`` (ticks of 100 us, 32-bit, unwrapped) when every
-    row has it, else ``PacketCounter`` (16-bit, unwrapped; some exports leave
-    SampleTimeFine empty) divided by the header's update (or sampling) rate.  ``t`` counts from the first sample.  The recording has an absolute
-    time when the export carries ``UTC_Year .. UTC_Second`` (+ ``UTC_Nano``)
-    with ``UTC_Valid`` bits 0 and 1 (date, time of day valid) set on some row: the epoch is that row's UTC minus its
+    row has it, else ``PacketCounter`` (16-bit, unwrapped) divided by the
+    header's update (or sampling) rate or by ``--rate`` (which wins, with a
+    warning when they differ); without either counter, rows are consecutive
+    samples at ``--rate`` (warning).  ``t`` counts from the first sample.  The
+    recording has an absolute time when the export carries ``UTC_Year ..
+    UTC_Second`` (+ ``UTC_Nano``) with ``UTC_Valid`` bits 0 and 1 (date, time
+    of day valid) set on some row: the epoch is that row's UTC minus its
     ``t``.  Otherwise there is no absolute time (warning; use ``--offset``).
 """
 
@@ -34,9 +52,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.rotations import quat_from_dcm
+from sportfusion.core.rotations import dcm_from_euler, dcm_from_quat, quat_from_dcm
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited
@@ -45,10 +64,19 @@ TICK = 1e-4  # s per SampleTimeFine tick
 _RATE = re.compile(r"([0-9.]+)\s*Hz", re.I)
 _MAT = re.compile(r"^Mat\[(\d)\]\[(\d)\]$")
 _AXES = {"Acc": "acc", "Gyr": "gyr", "Mag": "mag"}
+_COLUMN_LINE = re.compile(r"\b(PacketCounter|SampleTimeFine|Acc_X|Gyr_X|Mag_X|Quat_q0|Euler_X)\b|Mat\[1\]\[1\]")
+#: Global frame G -> NED, per the header's "Coordinate system".
+FRAMES: dict[str, np.ndarray] = {
+    "ENU": np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]),
+    "NWU": np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
+    "NED": np.eye(3),
+}
+#: Largest |heading| of the horizontal field in NED for a frame to pass [deg].
+HEADING_TOL_DEG = 45.0
 
 
 def sniff(path: Path, head: bytes) -> bool:
-    """``//`` header lines followed by a column line naming Acc_/Gyr_/PacketCounter/SampleTimeFine."""
+    """``//`` header lines followed by a column line naming Xsens columns, or such a column line first."""
     text = decode(head)
     lines = [ln for ln in text.splitlines() if ln.strip()]
     if not lines or not lines[0].lstrip().startswith("//"):
@@ -56,14 +84,97 @@ def sniff(path: Path, head: bytes) -> bool:
         return bool(lines) and bool(re.match(r"^(PacketCounter|SampleTimeFine)\b", lines[0].strip()))
     for ln in lines:
         if not ln.lstrip().startswith("//"):
-            return bool(re.search(r"\b(PacketCounter|SampleTimeFine|Acc_X|Gyr_X)\b", ln))
-    return "Update Rate" in text
+            return bool(_COLUMN_LINE.search(ln)) or ("Roll" in ln and "Yaw" in ln)
+    return any(k in text for k in ("Update Rate", "MT Manager", "Coordinate system", "Xsens"))
 
 
 def _unwrap(v: np.ndarray, bits: int) -> np.ndarray:
     step = np.diff(v)
     wraps = np.concatenate([[0], np.cumsum(step < -(2 ** (bits - 1)))])
     return v + wraps * float(2**bits)
+
+
+def _timing(table: Any, names: list[str], header: dict[str, str], opts: Options, path: Path, warnings: list[str]):
+    """Sample times [s] from the first sample, the rows kept, and where the times came from."""
+    rate = None
+    for key, val in header.items():  # "Update Rate: 100.0Hz", "Sampling Rate", "Sample rate", ...
+        m = _RATE.search(val) if "rate" in key.lower() else None
+        if m:
+            rate = float(m.group(1))
+            break
+    given = getattr(opts, "rate", None)
+    if given and rate and abs(given - rate) > 1e-9 * rate:
+        warnings.append(f"--rate {given:g} Hz overrides the header's {rate:g} Hz")
+    rate = given or rate
+    n = table.num_rows
+    keep = np.ones(n, dtype=bool)
+    stf = floats(table, "SampleTimeFine") if "SampleTimeFine" in names else None
+    pc = floats(table, "PacketCounter") if "PacketCounter" in names else None
+    if stf is not None and np.isfinite(stf).all():
+        return _unwrap(stf, 32) * TICK, keep, "SampleTimeFine"
+    if pc is not None and rate and np.isfinite(pc).any():
+        keep = np.isfinite(pc)
+        if not keep.all():
+            warnings.append(f"{int((~keep).sum())} row(s) without PacketCounter dropped")
+        return _unwrap(pc[keep], 16) / rate, keep, "PacketCounter"
+    if stf is not None and np.isfinite(stf).any() and not rate:
+        keep = np.isfinite(stf)
+        warnings.append(f"{int((~keep).sum())} row(s) without SampleTimeFine dropped")
+        return _unwrap(stf[keep], 32) * TICK, keep, "SampleTimeFine"
+    if rate and pc is None and stf is None:
+        warnings.append(f"no PacketCounter or SampleTimeFine: rows taken as consecutive samples at {rate:g} Hz")
+        return np.arange(n) / rate, keep, "row number"
+    have = [c for c, v in (("SampleTimeFine", stf), ("PacketCounter", pc)) if v is not None]
+    detail = f"{' and '.join(have)} with empty cells" if have else "neither SampleTimeFine nor PacketCounter"
+    raise InputError(
+        f"{path}: {detail}{'' if rate else ', no Update Rate header'}; expected SampleTimeFine on every row, "
+        "or PacketCounter and an 'Update Rate: ...Hz' header (or --rate HZ), to time the samples"
+    )
+
+
+def _r_gs(table: Any, names: list[str]) -> tuple[np.ndarray | None, list[str]]:
+    """R_GS (sensor -> global G) per row from quaternion, matrix or Euler columns, and the columns used."""
+    quat = [f"Quat_q{i}" for i in range(4)]
+    mats = {(int(mm.group(1)), int(mm.group(2))): c for c in names if (mm := _MAT.match(c))}
+    euler = next(
+        (e for e in (("Roll", "Pitch", "Yaw"), ("Euler_X", "Euler_Y", "Euler_Z")) if all(c in names for c in e)), None
+    )
+    if all(q in names for q in quat):
+        q = np.column_stack([floats(table, c) for c in quat])
+        return np.swapaxes(dcm_from_quat(q), -1, -2), quat  # dcm_from_quat gives the transpose of R(q)
+    if len(mats) == 9:
+        r = np.empty((table.num_rows, 3, 3))
+        for (i, j), c in mats.items():
+            r[:, i - 1, j - 1] = floats(table, c)
+        return r, list(mats.values())
+    if euler is not None:
+        a = [np.radians(floats(table, c)) for c in euler]
+        return np.swapaxes(dcm_from_euler(*a), -1, -2), list(euler)
+    return None, []
+
+
+def _headings(r_gs: np.ndarray, acc: np.ndarray | None, mag: np.ndarray | None) -> dict[str, tuple[bool, float]]:
+    """Per candidate frame: (passes, median heading of the field in NED [deg])."""
+    out: dict[str, tuple[bool, float]] = {}
+    for name, c in FRAMES.items():
+        r_ns = np.einsum("ij,njk->nik", c, r_gs)
+        ok, heading = True, float("nan")
+        if acc is not None:
+            f = np.einsum("nij,nj->ni", r_ns, acc)
+            good = np.isfinite(f).all(axis=1)
+            if good.any():
+                ok &= bool(np.median(f[good, 2]) < -0.5 * np.median(np.linalg.norm(f[good], axis=1)))
+        if mag is not None:
+            m = np.einsum("nij,nj->ni", r_ns, mag)
+            good = np.isfinite(m).all(axis=1) & (np.hypot(m[:, 0], m[:, 1]) > 0)
+            if good.any():
+                h = np.degrees(np.arctan2(m[good, 1], m[good, 0]))
+                heading = float(
+                    np.degrees(np.angle(np.median(np.cos(np.radians(h))) + 1j * np.median(np.sin(np.radians(h)))))
+                )
+                ok &= abs(heading) <= HEADING_TOL_DEG
+        out[name] = (ok, heading)
+    return out
 
 
 def read(path: Path, opts: Options) -> Recording:
@@ -77,34 +188,21 @@ def read(path: Path, opts: Options) -> Recording:
     n = 0
     while n < len(lines) and (lines[n].lstrip().startswith("//") or not lines[n].strip()):
         key, _, val = lines[n].lstrip()[2:].partition(":")
-        if val:
+        if val.strip():
             header[key.strip()] = val.strip()
         n += 1
-    table = read_delimited("\n".join(lines[n:]), str(path))
+    dropped: list[str] = []
+    table = read_delimited("\n".join(lines[n:]), str(path), dropped=dropped)
     names = [c.strip() for c in table.column_names]
     table = table.rename_columns(names)
     if table.num_rows == 0:
         raise InputError(f"{path}: the Xsens export has no samples")
     warnings: list[str] = []
-    rate = None
-    m = _RATE.search(header.get("Update Rate", header.get("Sampling Rate", "")))
-    if m:
-        rate = float(m.group(1))
-    stf = floats(table, "SampleTimeFine") if "SampleTimeFine" in names else None
-    pc = floats(table, "PacketCounter") if "PacketCounter" in names else None
-    if stf is not None and np.isfinite(stf).all():
-        tname = "SampleTimeFine"
-        t = _unwrap(stf, 32) * TICK
-    elif pc is not None and rate and np.isfinite(pc).all():
-        tname = "PacketCounter"
-        t = _unwrap(pc, 16) / rate
-    else:
-        have = [c for c, v in (("SampleTimeFine", stf), ("PacketCounter", pc)) if v is not None]
-        detail = f"{' and '.join(have)} with empty cells" if have else "neither SampleTimeFine nor PacketCounter"
-        raise InputError(
-            f"{path}: {detail}{'' if rate else ', no Update Rate header'}; expected SampleTimeFine on every row, "
-            "or PacketCounter on every row and an 'Update Rate: ...Hz' header, to time the samples"
-        )
+    if dropped:
+        warnings.append(f"column(s) {', '.join(dropped)} hold text, not numbers: not read")
+    t, keep, tname = _timing(table, names, header, opts, path, warnings)
+    if not keep.all():
+        table = table.filter(pa.array(keep))
     t = t - t[0]
     cols: dict[str, object] = {}
     used = {"SampleTimeFine", "PacketCounter"}
@@ -117,37 +215,63 @@ def read(path: Path, opts: Options) -> Recording:
     if "Pressure" in names:
         cols["pressure"] = floats(table, "Pressure")
         used.add("Pressure")
-    quat = [f"Quat_q{i}" for i in range(4)]
-    mats = {(int(mm.group(1)), int(mm.group(2))): c for c in names if (mm := _MAT.match(c))}
-    if all(q in names for q in quat):
-        q = np.column_stack([floats(table, c) for c in quat])
-        used.update(quat)
-    elif len(mats) == 9:
-        r = np.empty((table.num_rows, 3, 3))
-        for (i, j), c in mats.items():
-            r[:, i - 1, j - 1] = floats(table, c)
-        q = quat_from_dcm(np.swapaxes(r, -1, -2))  # quat_from_dcm takes the transpose of R(q)
-        used.update(mats.values())
-    else:
-        q = None
-    if q is not None:
+    imu = any(k.startswith(("acc_", "gyr_", "mag_")) for k in cols)
+    r_gs, ori_cols = _r_gs(table, names)
+    used.update(ori_cols)
+    meta: dict[str, Any] = {"header": header, "time_from": tname}
+    if r_gs is not None:
+        stated = header.get("Coordinate system", "").strip().upper()
+        frame = stated if stated in FRAMES else "ENU"
+        if stated and stated not in FRAMES:
+            warnings.append(f"'Coordinate system: {stated}' is not ENU, NWU or NED; ENU assumed")
+        acc = np.column_stack([cols[f"acc_{a}"] for a in "xyz"]) if "acc_x" in cols and "acc_z" in cols else None
+        mag = np.column_stack([cols[f"mag_{a}"] for a in "xyz"]) if "mag_x" in cols and "mag_z" in cols else None
+        if acc is not None or mag is not None:
+            fits = _headings(r_gs, acc, mag)
+            passing = [f for f, (ok, _) in fits.items() if ok]
+            if not fits[frame][0] and passing:
+                said = f"stated {frame}" if stated else f"{frame} (no Coordinate system line)"
+                warnings.append(
+                    f"orientation frame {said} puts magnetic north at {fits[frame][1]:.0f} deg and/or gravity off the "
+                    f"vertical; {passing[0]} fits the Acc/Mag columns (north at {fits[passing[0]][1]:.0f} deg): "
+                    f"converted as {passing[0]}"
+                )
+                frame = passing[0]
+            elif not fits[frame][0]:
+                warnings.append(
+                    f"orientation frame {frame}: the Acc/Mag columns fit no frame (north at {fits[frame][1]:.0f} deg); "
+                    "converted as stated"
+                )
+            meta["frame_check"] = {f: {"passes": ok, "north_deg": h} for f, (ok, h) in fits.items()}
+        elif not stated:
+            warnings.append(
+                "no 'Coordinate system' line and no Acc/Mag to check: orientation taken in ENU (MT Manager's default)"
+            )
+        m_bo = np.swapaxes(np.einsum("ij,njk->nik", FRAMES[frame], r_gs), -1, -2)
+        good = np.isfinite(m_bo).all(axis=(1, 2))
+        q = np.full((table.num_rows, 4), np.nan)
+        if good.any():
+            q[good] = quat_from_dcm(m_bo[good])
+        prefix = "dev_q" if imu else "q"
         for i in range(4):
-            cols[f"dev_q{i}"] = q[:, i]
-    if not any(k.startswith(("acc_", "gyr_", "mag_")) for k in cols):
-        raise InputError(f"{path}: no Acc_X/Gyr_X/Mag_X column (columns: {', '.join(names)})")
+            cols[f"{prefix}{i}"] = q[:, i]
+        meta["orientation"] = (
+            f"{prefix}0..3 = q_BO (NED -> sensor, scalar first), from the export's {frame} orientation "
+            f"({', '.join(ori_cols[:1])}...)"
+        )
+        meta["frame"] = frame
+    if not cols:
+        raise InputError(
+            f"{path}: no Acc_X/Gyr_X/Mag_X or orientation (Quat_q0, Mat[1][1], Roll/Pitch/Yaw) column "
+            f"(columns: {', '.join(names)})"
+        )
     epoch = _utc_epoch(table, names, t)
     if epoch is None:
         warnings.append("no valid UTC columns: the export has no absolute time; align it by --offset NAME=SECONDS")
     utc_cols = {c for c in names if c.startswith("UTC_")}
-    meta: dict[str, Any] = {
-        "header": header,
-        "time_from": tname,
-        "ignored_columns": [c for c in names if c not in used and c not in utc_cols],
-    }
+    meta["ignored_columns"] = [c for c in names if c not in used and c not in utc_cols]
     if "mag_x" in cols:
         meta["units"] = {f"mag_{a}": "1" for a in "xyz"}
-    if q is not None:
-        meta["orientation"] = "dev_q = Xsens q_GS (sensor -> global, ENU unless the device was set to NED)"
     return Recording(str(path), "xsens", [Stream(path.stem, t, cols)], epoch, meta, warnings)
 
 

@@ -15,6 +15,27 @@ The method of the paper, with the errata applied:
 3. ``t_TO = min(t_peak1, t_peak2)`` (eq A3) and
    ``t_TD = max(t_peak1, t_peak2) - touchdown_offset`` (0.05 s, eq A4).
 
+GNSS outages (policy, issue 17): where the GNSS speed is unknown for longer
+than ``max_gnss_gap`` (loss of lock, a receiver that stopped), the speed gate
+cannot be applied.  Such a stretch is searched as if fast when the GNSS speed
+just before or just after it exceeds ``min_speed`` (the athlete was moving
+into or out of the outage): the jump is then found from the accelerometer
+alone (the two peaks, the flight between them), and a warning names the
+outage.  So is an outage of 3 s or more whose both sides are slow (the whole
+in-run and jump may hide in it); a shorter one between slow stretches is not
+searched.
+
+Clipped accelerometer samples (policy, issue 17): a sensor that saturates
+(impacts easily exceed 16 g) reports plateaus at its range
+(:func:`sportfusion.core.saturation.clipped`, found from the data) and short
+vibration bursts that clip too.  When the accelerometer of a session clips,
+``a_norm`` within ``peak_filter`` seconds (0.1 s) of a clipped sample is bridged
+by linear interpolation before the peak search (a burst is not a peak; a
+landing peak lasts longer than the burst and its shoulders remain); if
+Appendix A then finds no jump in a window, the pair of peaks with the longest
+flight between them is taken (:func:`_pair_search`); a warning says so.  A session that
+does not clip is analysed exactly as Appendix A says.
+
 Appendix A always returns two peaks; to avoid inventing a jump where there is
 none, a window is accepted only if, in addition, the second peak is a local
 maximum no further than ``max_separation`` from the first, both peaks reach
@@ -37,6 +58,7 @@ import pyarrow as pa
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.events import set_events, true_runs
+from sportfusion.core.saturation import clipped_rows
 
 JUMP_EVENTS = ("takeoff", "touchdown")
 
@@ -63,6 +85,9 @@ class JumpParams:
         Time trimmed at each end of the flight before the median [s].
     max_gnss_gap : float
         GNSS speed is not interpolated across gaps longer than this [s].
+    peak_filter : float
+        When the accelerometer clipped: samples within this time of a clipped sample are bridged
+        (linear interpolation) before the peak search [s], so that impact bursts are not taken as peaks.
     """
 
     min_speed: float = 10.0
@@ -73,6 +98,7 @@ class JumpParams:
     max_flight_acc: float = 9.0
     flight_trim: float = 0.3
     max_gnss_gap: float = 2.0
+    peak_filter: float = 0.1
 
 
 @dataclass
@@ -96,6 +122,7 @@ class JumpDetection:
     jumps: list[Jump] = field(default_factory=list)
     rejected: list[dict[str, Any]] = field(default_factory=list)
     windows: int = 0
+    warnings: list[str] = field(default_factory=list)
 
     def summary(self, params: JumpParams) -> dict[str, Any]:
         """JSON-ready summary for the metadata."""
@@ -106,6 +133,7 @@ class JumpDetection:
             "speed_windows": self.windows,
             "jumps": [asdict(j) for j in self.jumps],
             "rejected": self.rejected,
+            "warnings": self.warnings,
         }
 
     def message(self) -> str:
@@ -142,7 +170,12 @@ def speed_at(t: np.ndarray, t_gnss: np.ndarray, speed: np.ndarray, max_gap: floa
 
 
 def detect_jumps(
-    t: np.ndarray, acc_norm: np.ndarray, speed: np.ndarray, params: JumpParams | None = None
+    t: np.ndarray,
+    acc_norm: np.ndarray,
+    speed: np.ndarray,
+    params: JumpParams | None = None,
+    clipped: np.ndarray | None = None,
+    acc: np.ndarray | None = None,
 ) -> JumpDetection:
     """Take-off and touch-down of every jump (Appendix A, see the module text).
 
@@ -155,6 +188,11 @@ def detect_jumps(
     speed : ndarray, shape (n,)
         GNSS speed at those times [m/s] (NaN where unknown), e.g. from :func:`speed_at`.
     params : JumpParams, optional
+    clipped : ndarray of bool, shape (n,), optional
+        Samples where the accelerometer clipped; when any, impact bursts are filtered
+        (:func:`bridge_clipped`) before the peak search.
+    acc : ndarray, shape (n, 3), optional
+        The accelerometer axes [m/s^2]; needed when ``clipped`` has any True.
 
     Returns
     -------
@@ -162,49 +200,37 @@ def detect_jumps(
     """
     p = params or JumpParams()
     det = JumpDetection()
-    fast = np.isfinite(speed) & (speed > p.min_speed) & np.isfinite(acc_norm)
+    fast, bridged = _speed_gate(t, speed, p.min_speed)
+    fast &= np.isfinite(acc_norm)
+    for a, b in bridged:
+        det.warnings.append(
+            f"GNSS speed missing {a:.1f}-{b:.1f} s (outage) next to fast motion: "
+            "that stretch is searched for a jump from the accelerometer alone"
+        )
+    acc_f = acc_norm
+    if clipped is not None and np.any(clipped):
+        if acc is None:
+            raise ValueError("detect_jumps: clipped samples need the accelerometer axes (acc)")
+        acc_f = bridge_clipped(t, acc, clipped, p.peak_filter)
+        det.warnings.append(
+            f"accelerometer clipped (saturated) in {int(np.sum(clipped))} sample(s): impact bursts "
+            f"(within {p.peak_filter:g} s) are median-filtered before the peak search"
+        )
+    robust = acc_f is not acc_norm
     for i0, i1 in true_runs(fast):
         det.windows += 1
-        tw, aw = t[i0:i1], acc_norm[i0:i1]
+        tw, aw = t[i0:i1], acc_f[i0:i1]
         win = (float(tw[0]), float(tw[-1]))
-        k1 = int(np.argmax(aw))
-        dt = np.abs(tw - tw[k1])
-        cand = (dt > p.min_separation) & (dt <= p.max_separation)
-        if not cand.any():
-            det.rejected.append(
-                {
-                    "window": win,
-                    "reason": f"no second acceleration peak more than {p.min_separation:g} s from the first",
-                }
-            )
+        found = _window_jump(tw, aw, p)
+        if isinstance(found, str) and robust:
+            alt = _pair_search(tw, aw, p)
+            found = alt if alt is not None else found
+        if isinstance(found, str):
+            det.rejected.append({"window": win, "reason": found})
             continue
-        k2 = int(np.flatnonzero(cand)[np.argmax(aw[cand])])
-        local = (k2 == 0 or aw[k2] >= aw[k2 - 1]) and (k2 == aw.size - 1 or aw[k2] >= aw[k2 + 1])
-        if not local or (k2 > 0 and not cand[k2 - 1]) or (k2 < aw.size - 1 and not cand[k2 + 1]):
-            det.rejected.append({"window": win, "reason": "the second largest acceleration is not a peak"})
-            continue
-        ka, kb = sorted((k1, k2))
-        if min(aw[ka], aw[kb]) < p.min_peak:
-            det.rejected.append(
-                {
-                    "window": win,
-                    "reason": f"peaks {aw[ka]:.1f} and {aw[kb]:.1f} m/s^2, below min_peak {p.min_peak:g} m/s^2",
-                }
-            )
-            continue
+        ka, kb = found
         mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
-        if not mid.any():
-            mid = np.zeros(tw.shape, bool)
-            mid[ka + (kb - ka) // 2] = True
-        flight = float(np.median(aw[mid]))
-        if flight > p.max_flight_acc:
-            det.rejected.append(
-                {
-                    "window": win,
-                    "reason": f"no flight between the peaks (median |a| {flight:.1f} m/s^2 > {p.max_flight_acc:g})",
-                }
-            )
-            continue
+        flight = float(np.median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
         det.jumps.append(
             Jump(
                 takeoff=float(tw[ka]),
@@ -218,6 +244,118 @@ def detect_jumps(
             )
         )
     return det
+
+
+def _flight_median(tw: np.ndarray, aw: np.ndarray, ka: int, kb: int, p: JumpParams) -> float:
+    mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
+    return float(np.median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
+
+
+def _window_jump(tw: np.ndarray, aw: np.ndarray, p: JumpParams) -> tuple[int, int] | str:
+    """Appendix A on one window: the indices (take-off peak, landing peak), or why there is no jump."""
+    k1 = int(np.argmax(aw))
+    dt = np.abs(tw - tw[k1])
+    cand = (dt > p.min_separation) & (dt <= p.max_separation)
+    if not cand.any():
+        return f"no second acceleration peak more than {p.min_separation:g} s from the first"
+    k2 = int(np.flatnonzero(cand)[np.argmax(aw[cand])])
+    local = (k2 == 0 or aw[k2] >= aw[k2 - 1]) and (k2 == aw.size - 1 or aw[k2] >= aw[k2 + 1])
+    if not local or (k2 > 0 and not cand[k2 - 1]) or (k2 < aw.size - 1 and not cand[k2 + 1]):
+        return "the second largest acceleration is not a peak"
+    ka, kb = sorted((k1, k2))
+    if min(aw[ka], aw[kb]) < p.min_peak:
+        return f"peaks {aw[ka]:.1f} and {aw[kb]:.1f} m/s^2, below min_peak {p.min_peak:g} m/s^2"
+    flight = _flight_median(tw, aw, ka, kb, p)
+    if flight > p.max_flight_acc:
+        return f"no flight between the peaks (median |a| {flight:.1f} m/s^2 > {p.max_flight_acc:g})"
+    return ka, kb
+
+
+def _pair_search(tw: np.ndarray, aw: np.ndarray, p: JumpParams, top: int = 12) -> tuple[int, int] | None:
+    """Robust fallback when the sensor clipped: of the ``top`` largest peaks above ``min_peak`` (0.3 s apart),
+    the pair ``min_separation``-``max_separation`` apart with the purest flight between them (lowest
+    median ``|a|``, below ``max_flight_acc``); None when none qualifies."""
+    order = np.argsort(aw)[::-1]
+    peaks: list[int] = []
+    for k in order:
+        if aw[k] < p.min_peak or len(peaks) >= top:
+            break
+        if all(abs(tw[k] - tw[j]) > 0.3 for j in peaks):
+            peaks.append(int(k))
+    pairs = []
+    for i in peaks:
+        for j in peaks:
+            d = tw[j] - tw[i]
+            if p.min_separation < d <= p.max_separation:
+                f = _flight_median(tw, aw, i, j, p)
+                if f <= p.max_flight_acc:
+                    pairs.append((f, d, i, j))
+    if not pairs:
+        return None
+    _, _, i, j = min(pairs)
+    return i, j
+
+
+def _speed_gate(
+    t: np.ndarray, speed: np.ndarray, min_speed: float, min_outage: float = 3.0
+) -> tuple[np.ndarray, list[tuple[float, float]]]:
+    """Samples to search (speed above ``min_speed``, or unknown next to a fast stretch or for at least
+    ``min_outage`` [s]: a whole jump fits in it) and the bridged outages."""
+    known = np.isfinite(speed)
+    fast = known & (speed > min_speed)
+    bridged = []
+    for i0, i1 in true_runs(~known):
+        before = speed[i0 - 1] if i0 > 0 else np.nan
+        after = speed[i1] if i1 < speed.size else np.nan
+        long_enough = t[i1 - 1] - t[i0] >= min_outage
+        if before > min_speed or after > min_speed or long_enough:
+            fast[i0:i1] = True
+            bridged.append((float(t[i0]), float(t[i1 - 1])))
+    return fast, bridged
+
+
+def bridge_clipped(t: np.ndarray, acc: np.ndarray, clipped: np.ndarray, margin: float) -> np.ndarray:
+    """``|a|`` with impact bursts removed: near a burst, the norm of the per-axis running median.
+
+    A burst is a sample where the accelerometer clipped or any axis reads beyond half the
+    clipping level (an impact-level vibration); within ``margin`` [s] of one, ``|a|`` is taken
+    from the per-axis running median over 1.5 ``margin`` (a zero-mean vibration averages out,
+    a landing's deceleration, which lasts longer, stays); elsewhere it is the raw norm.
+    """
+    norm = np.linalg.norm(acc, axis=1)
+    c = np.asarray(clipped, bool)
+    if not c.any():
+        return norm
+    level = float(np.nanmin(np.abs(acc[c]).max(axis=1)))
+    burst = c | (np.nanmax(np.abs(acc), axis=1) >= 0.5 * level)
+    tc = t[burst]
+    j = np.clip(np.searchsorted(tc, t), 1, tc.size)
+    near = (np.abs(t - tc[j - 1]) <= margin) | (np.abs(t - tc[np.minimum(j, tc.size - 1)]) <= margin)
+    from scipy.ndimage import median_filter
+
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    k = max(int(round(1.5 * margin / dt)) | 1, 3)
+    med = np.linalg.norm(median_filter(np.nan_to_num(acc), size=(k, 1), mode="nearest"), axis=1)
+    return np.where(near, med, norm)
+
+
+def running_median(t: np.ndarray, x: np.ndarray, width: float) -> np.ndarray:
+    """Running median of ``x`` over ``width`` seconds (odd number of samples, at least 3; ``x`` when too short).
+
+    The sample spacing is the median of ``diff(t)``; edges use the shrinking window
+    of :func:`scipy.ndimage.median_filter` (mode ``nearest``).
+    """
+    if width <= 0 or x.size < 3:
+        return x
+    from scipy.ndimage import median_filter
+
+    dt = float(np.median(np.diff(t)))
+    k = int(round(width / dt)) if dt > 0 else 1
+    k = k + 1 if k % 2 == 0 else k
+    if k < 3:
+        return x
+    out = median_filter(np.where(np.isfinite(x), x, 0.0), size=k, mode="nearest")
+    return np.where(np.isfinite(x), out, np.nan)
 
 
 def gnss_speed(table: pa.Table) -> tuple[np.ndarray, np.ndarray]:
@@ -269,7 +407,9 @@ def detect_jump_table(table: pa.Table, params: JumpParams | None = None) -> Jump
     if t_g.size < 2:
         raise InputError("the session has fewer than 2 GNSS velocity samples; expected a GNSS track for the speed")
     ti = t[imu]
-    return detect_jumps(ti, np.linalg.norm(acc[imu], axis=1), speed_at(ti, t_g, v_g, p.max_gnss_gap), p)
+    clip = clipped_rows(acc[imu])
+    a = acc[imu]
+    return detect_jumps(ti, np.linalg.norm(a, axis=1), speed_at(ti, t_g, v_g, p.max_gnss_gap), p, clip, a)
 
 
 def jump_events(det: JumpDetection) -> list[tuple[str, float]]:

@@ -11,7 +11,7 @@ import pyarrow as pa
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
-from sportfusion.core.plots import _AX, _col, _mark_events, _new_figure, events_of
+from sportfusion.core.plots import _AX, _col, _mark_events, _new_figure, events_of, legend_outside, place_labels
 from sportfusion.skijump.hill import HillProfile
 
 if TYPE_CHECKING:
@@ -22,22 +22,25 @@ if TYPE_CHECKING:
 _POINTS = ("A", "B", "E1", "E2", "T", "F", "P", "K", "L", "U")
 
 
-def _draw_profile(ax: Axes, profile: HillProfile, points: bool = True) -> None:
+def _draw_profile(ax: Axes, profile: HillProfile, points: tuple[str, ...] = _POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """The profile's line, the landing hill shaded, markers at ``points``; returns the markers' (x, -z) [m]
+    and the profile's sampled (x, -z) [m] (what labels should not cover)."""
+    line = []
     for part in ("inrun", "landing"):
         x, z = profile.sample(part)
         ax.plot(x, -z, color="0.25", lw=1.4, label="hill profile" if part == "landing" else None)
+        line.append(np.column_stack([x, -z]))
     x, z = profile.sample("landing")
     ax.fill_between(x, -z, np.nanmin(-z) - 5, color="0.9", zorder=0)
-    if points:
-        for name in _POINTS:
-            px, pz = profile.points[name]
-            ax.plot(px, -pz, "o", ms=4, color="tab:red" if name in ("K", "L") else "tab:blue", zorder=5)
-            below = name in ("F", "B", "E2")
-            ax.annotate(name, (px, -pz), textcoords="offset points", xytext=(4, -12 if below else 4), fontsize=8)
+    xy = np.array([(profile.points[n][0], -profile.points[n][1]) for n in points]).reshape(-1, 2)
+    for name, (px, pz) in zip(points, xy, strict=True):
+        ax.plot(px, pz, "o", ms=4, color="tab:red" if name in ("K", "L") else "tab:blue", zorder=5)
+    return xy, np.vstack(line)
 
 
 def hill_figure(profile: HillProfile, title: str = "", width: float = 10.0, height: float = 6.0) -> Figure:
-    """Side view of a hill: in-run, landing hill and out-run with the key points A .. U.
+    """Side view of a hill: in-run, landing hill and out-run with the key points A .. U, labelled so that
+    no two labels collide (leader lines where points crowd, as E2 T F at the take-off edge).
 
     Parameters
     ----------
@@ -49,7 +52,7 @@ def hill_figure(profile: HillProfile, title: str = "", width: float = 10.0, heig
     """
     fig = _new_figure(width, height)
     ax = fig.add_subplot()
-    _draw_profile(ax, profile)
+    xy, line = _draw_profile(ax, profile)
     c = profile.cert
     ax.set_title(
         f"{title}  ({c.type}, K {c.w:g} m, HS {c.hS:g} m; jump length at K "
@@ -59,6 +62,7 @@ def hill_figure(profile: HillProfile, title: str = "", width: float = 10.0, heig
     ax.set_ylabel("height above the take-off edge, -z [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.4, alpha=0.6)
+    place_labels(ax, xy, list(_POINTS), avoid=line)
     return fig
 
 
@@ -95,23 +99,25 @@ def track_figure(
         raise InputError("no gnss_x/gnss_z or x/z columns to draw; expected a session after gps2hill")
     fig = _new_figure(width, height)
     side, top = fig.subplots(2, 1, sharex=True, height_ratios=[2, 1])
+    marks: np.ndarray | None = None
+    avoid = [np.empty((0, 2))]
     if profile is not None:
-        _draw_profile(side, profile, points=False)
-        for name in ("T", "K", "L"):
-            px, pz = profile.points[name]
-            side.annotate(name, (px, -pz), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        marks, line = _draw_profile(side, profile, points=("T", "K", "L"))
+        avoid.append(line)
         for part in ("inrun", "landing"):
             x, _ = profile.sample(part)
             top.plot(x, np.zeros_like(x), color="0.25", lw=1.0)
     if has_gnss:
         ok = np.isfinite(gx) & np.isfinite(gz)
         side.plot(gx[ok], -gz[ok], ".", ms=3, color="tab:orange", label=f"GNSS ({ok.sum()} fixes)")
+        avoid.append(np.column_stack([gx[ok], -gz[ok]]))
         if gy is not None:
             ok2 = ok & np.isfinite(gy)
             top.plot(gx[ok2], gy[ok2], ".", ms=3, color="tab:orange")
     if has_est:
         ok = np.isfinite(ex) & np.isfinite(ez)
         side.plot(ex[ok], -ez[ok], "-", lw=1.2, color="tab:blue", label="estimate")
+        avoid.append(np.column_stack([ex[ok], -ez[ok]]))
         sz = _col(table, "std_z")
         if sz is not None:
             m = ok & np.isfinite(sz)
@@ -129,12 +135,15 @@ def track_figure(
     where = f"frame '{frame.get('name', '?')}', azimuth {frame.get('azimuth_deg', 0):g} deg" if frame else "no frame"
     side.set_title(f"{title}  ({where})" if title else where)
     side.set_ylabel("height, -z [m]")
-    side.legend(loc="upper right", fontsize=8)
+    legend_outside(side)
     side.grid(True, lw=0.4, alpha=0.6)
     top.set_ylabel("y (right) [m]")
     top.invert_yaxis()
     top.set_xlabel("x: along the hill axis [m]")
     top.grid(True, lw=0.4, alpha=0.6)
+    top.set_title("top view (y not to scale)", fontsize=9)
+    if marks is not None:
+        place_labels(side, marks, ["T", "K", "L"], avoid=np.vstack(avoid))
     return fig
 
 
@@ -144,15 +153,30 @@ def _velocity(table: pa.Table) -> np.ndarray | None:
     return None if any(c is None for c in cols) else np.column_stack(cols)
 
 
+def _flight(table: pa.Table) -> tuple[float, float] | None:
+    """(t take-off, t touch-down) [s] of the first jump in the events, or None."""
+    if "event" not in table.column_names:
+        return None
+    t = schema.floats(table, "t")
+    ev = np.array([e or "" for e in table.column("event").to_pylist()], dtype=object)
+    to = t[ev == "takeoff"]
+    if to.size == 0:
+        return None
+    td = t[(ev == "touchdown") & (t > to[0])]
+    return None if td.size == 0 else (float(to[0]), float(td[0]))
+
+
 def speed_figure(
     table: pa.Table,
     meta: dict[str, Any],
     profile: HillProfile | None = None,
     title: str = "",
     width: float = 11.0,
-    height: float = 6.0,
+    height: float = 9.0,
 ) -> Figure:
-    """Side view of the estimated trajectory coloured by speed (the paper's Figure 7).
+    """Side view of the estimated trajectory coloured by speed (the paper's Figure 7), the whole run on top
+    and, when the session has take-off and touch-down events, a zoom on the flight below (to scale, one
+    colour scale for both).
 
     Parameters
     ----------
@@ -169,41 +193,77 @@ def speed_figure(
     InputError
         No ``x z`` or no ``vx vy vz`` columns.
     """
+    from matplotlib.colors import Normalize
+
     x, z = _col(table, "x"), _col(table, "z")
     v = _velocity(table)
     if x is None or z is None or v is None:
         raise InputError(
             "missing columns: plot speed needs an estimate x, z [m] and vx vy vz [m/s]; run rts-smooth or spline-smooth first"
         )
+    t = schema.floats(table, "t")
     speed = np.linalg.norm(v, axis=1)
     ok = np.isfinite(x) & np.isfinite(z) & np.isfinite(speed)
-    fig = _new_figure(width, height)
-    ax = fig.add_subplot()
-    if profile is not None:
-        _draw_profile(ax, profile, points=False)
-    sc = ax.scatter(x[ok], -z[ok], c=speed[ok], s=4, cmap="viridis", zorder=3)
-    fig.colorbar(sc, ax=ax, label="speed |v| [m/s]")
+    flight = _flight(table)
+    if flight is not None and not (ok & (t >= flight[0]) & (t <= flight[1])).any():
+        flight = None  # no estimate in the air to zoom on
+    fig = _new_figure(width, height if flight else height * 0.6)
+    axes = list(fig.subplots(2, 1, height_ratios=[1, 1.1])) if flight else [fig.add_subplot()]
+    norm = Normalize(float(np.nanmin(speed[ok])), float(np.nanmax(speed[ok]))) if ok.any() else None
+    track = np.column_stack([x[ok], -z[ok]])
+    labelled = []
     for t_ev, name in events_of(table):
-        i = int(np.argmin(np.abs(schema.floats(table, "t") - t_ev)))
+        i = int(np.argmin(np.abs(t - t_ev)))
         if ok[i]:
-            ax.annotate(
-                f"{name}\n{speed[i]:.1f} m/s",
-                (x[i], -z[i]),
-                textcoords="offset points",
-                xytext=(6, 6),
-                fontsize=8,
-                arrowprops={"arrowstyle": "-", "color": "0.4"},
-            )
+            labelled.append((x[i], -z[i], f"{name}\n{speed[i]:.1f} m/s"))
     frame = (meta.get("frame") or {}).get("name", "local")
-    ax.set_title(title or f"trajectory coloured by speed ({frame} frame)")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("height, -z [m]")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, lw=0.4, alpha=0.6)
+    for k, ax in enumerate(axes):
+        if profile is not None:
+            _draw_profile(ax, profile, points=())
+        sel = ok.copy()
+        if k == 1 and flight:  # the flight with its own colour scale, to show the speed's change in the air
+            m = ok & (t >= flight[0]) & (t <= flight[1])
+            x0, x1 = float(np.min(x[m])) - 8.0, float(np.max(x[m])) + 12.0
+            sel = ok & (x >= x0) & (x <= x1)
+            y0, y1 = float(np.min(-z[sel])) - 4.0, float(np.max(-z[sel])) + 4.0
+            ax.set_xlim(x0, x1)
+            ax.set_ylim(y0, y1)
+            norm = Normalize(float(np.min(speed[sel])), float(np.max(speed[sel])))
+        sc = ax.scatter(x[sel], -z[sel], c=speed[sel], s=4 if k == 0 else 8, cmap="viridis", norm=norm, zorder=3)
+        ax.plot(*np.array([p[:2] for p in labelled]).T.reshape(2, -1), "o", ms=5, mfc="none", mec="k", zorder=4)
+        fig.colorbar(sc, ax=ax, label="speed |v| [m/s]" if k == 0 else "speed in the zoom |v| [m/s]")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("height, -z [m]")
+        ax.set_aspect("equal", adjustable="datalim" if k == 0 else "box")
+        ax.grid(True, lw=0.4, alpha=0.6)
+    axes[0].set_title(title or f"trajectory coloured by speed ({frame} frame{'; circles: events' if labelled else ''})")
+    if flight:
+        i0, i1 = (int(np.argmin(np.abs(t - f))) for f in flight)
+        axes[1].set_title(
+            f"flight (zoom): {flight[1] - flight[0]:.2f} s in the air, {x[i1] - x[i0]:.1f} m horizontally",
+            fontsize=10,
+        )
+        axes[0].indicate_inset_zoom(axes[1], edgecolor="0.3")
+    for ax in axes:
+        if labelled:
+            xl, yl = ax.get_xlim(), ax.get_ylim()
+            inside = [p for p in labelled if xl[0] <= p[0] <= xl[1] and min(yl) <= p[1] <= max(yl)]
+            if inside:
+                place_labels(
+                    ax,
+                    np.array([p[:2] for p in inside]),
+                    [p[2] for p in inside],
+                    avoid=np.vstack([track, *([] if profile is None else [_draw_line(profile)])]),
+                )
     return fig
 
 
-def mag_figure(table: pa.Table, title: str = "", width: float = 11.0) -> Figure:
+def _draw_line(profile: HillProfile) -> np.ndarray:
+    """The profile's sampled (x, -z) [m]."""
+    return np.vstack([np.column_stack([p[0], -p[1]]) for p in (profile.sample("inrun"), profile.sample("landing"))])
+
+
+def mag_figure(table: pa.Table, title: str = "", width: float = 12.0) -> Figure:
     """Measured magnetometer ``mag_*`` against the smoother's prediction ``mag_pred_*`` (Figure 12).
 
     Raises
@@ -218,7 +278,7 @@ def mag_figure(table: pa.Table, title: str = "", width: float = 11.0) -> Figure:
             "missing columns: plot mag needs mag_x.. and the smoother's mag_pred_x.. columns; run rts-smooth first"
         )
     unit = schema.unit_of("mag_x") or "uT"
-    fig = _new_figure(width, 7.0)
+    fig = _new_figure(width, 7.5)
     axes = fig.subplots(3, 1, sharex=True)
     events = events_of(table)
     for ax, a in zip(axes, _AX, strict=True):
@@ -227,10 +287,12 @@ def mag_figure(table: pa.Table, title: str = "", width: float = 11.0) -> Figure:
         ax.plot(t[ok], m[ok], ".", ms=1.5, color="0.55", label=f"measured mag_{a}")
         ok = np.isfinite(p)
         ax.plot(t[ok], p[ok], color="tab:red", lw=1.0, label=f"estimated mag_pred_{a}")
-        _mark_events(ax, events)
         ax.set_ylabel(f"mag_{a} [{unit}]")
         ax.grid(True, lw=0.4, alpha=0.6)
-        ax.legend(loc="upper right", fontsize=7)
+        legend_outside(ax, fontsize=7)
+    for k, ax in enumerate(axes):
+        _mark_events(ax, events, label=k == 0)
     axes[-1].set_xlabel("t [s]")
-    axes[0].set_title(title or "magnetometer: measured vs estimated (body frame)")
+    what = "; dashed lines: events" if events else ""
+    fig.suptitle(title or f"magnetometer: measured vs estimated (body frame{what})")
     return fig

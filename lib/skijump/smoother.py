@@ -40,12 +40,15 @@ import pyarrow as pa
 
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.gaps import describe_gaps
+from sportfusion.core.magdisturb import describe as describe_mag
 from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
+from sportfusion.skijump.saturation import clipped_message, mag_innovation_outliers, step_noise
 from sportfusion.skijump.smoother_inputs import (
     SkiJumpInputs,
     SmootherConfig,
@@ -96,7 +99,7 @@ def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, 
 def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None):
     """propagate/measure for :func:`ekf_rts` (plain numpy, the reference path)."""
     mno = m_no(math.radians(inp.azimuth_deg))
-    qd = np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2
+    qd = step_noise(inp, cfg)
     dt = np.diff(inp.t)
     R_pos = np.diag(np.asarray(cfg.r_gnss_pos) ** 2)
     R_vel = np.diag(np.asarray(cfg.r_gnss_vel) ** 2)
@@ -115,7 +118,7 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
         u0, u1 = inp.u[k], inp.u[k + 1]
         xn = mdl.rk4_aug(x, u0, u1, dt[k], inp.g0, mno)
         A = mdl.jac_a(x, u0, inp.g0, mno)
-        Phi, Qd = mdl.discrete(A, mdl.jac_f(x), qd, dt[k])
+        Phi, Qd = mdl.discrete(A, mdl.jac_f(x), qd[k], dt[k])
         return xn, Phi, Qd
 
     def measure(k: int, x: np.ndarray) -> list[Measurement]:
@@ -184,7 +187,7 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
             float(seg.g0),
             m_no(math.radians(seg.azimuth_deg)),
             seg.m_o,
-            np.array([cfg.q_gyr] * 3 + [cfg.q_acc] * 3) ** 2,
+            step_noise(seg, cfg),
             np.asarray(cfg.r_gnss_pos, float) ** 2,
             np.asarray(cfg.r_gnss_vel, float) ** 2,
             float(cfg.r_mag**2),
@@ -447,6 +450,23 @@ def rts_smooth_table(
     if on_start is not None:
         on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
     res = smooth_inputs(inp, hill, cfg, progress, engine)
+    if cfg.use_mag:
+        # a disturbance that keeps the field's strength shows in the innovations: skip those samples, run again
+        bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
+        if bad.any():
+            raw = inp.mag.copy()
+            inp.mag[bad] = np.nan
+            res = smooth_inputs(inp, hill, cfg, progress, engine)
+            # the flagged stretch may outlast the disturbance (the filter's heading was off for a while): give back
+            # the samples that agree with the smoothed attitude, then run once more
+            idx = np.flatnonzero(bad)
+            pred = np.array([mdl.h_mag(res.x_smooth[k], inp.m_o) for k in idx])
+            agree = np.linalg.norm(raw[idx] - pred, axis=1) < 2.0 * math.sqrt(3.0) * cfg.r_mag
+            if agree.any():
+                bad[idx[agree]] = False
+                inp.mag[idx[agree]] = raw[idx[agree]]
+                res = smooth_inputs(inp, hill, cfg, progress, engine)
+            inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     t_rows = schema.floats(table, "t")
     cols = _estimate_columns(res.x_smooth, res.cov, inp)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
@@ -473,6 +493,11 @@ def rts_smooth_table(
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
+    warn = [clipped_message(inp), describe_gaps("GNSS", inp.t[np.isfinite(inp.pos[:, 0])], 2.0)]
+    if inp.mag_disturbed is not None and inp.mag_disturbed.any():
+        md = inp.mag_disturbed
+        warn.append(describe_mag(int(md.sum()), inp.t, md) + ": those samples are skipped")
+    new_meta["rts"]["warnings"] = [w for w in warn if w]
     msg = (
         f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
         f"hill constraints {'on' if cfg.hill_constraints else 'off'}"

@@ -401,7 +401,7 @@ def ski_ekf_rts(
         if k < n - 1:
             dt = t[k + 1] - t[k]
             _rk4(x, u[k], u[k + 1], dt, g0, mno, xn, M)
-            _phi_qd(x, u[k], dt, g0, mno, qd, Phi, Qd, M, D)
+            _phi_qd(x, u[k], dt, g0, mno, qd[k], Phi, Qd, M, D)
             _predict_cov(P, Phi, Qd, Pn)
             P[:, :] = Pn
             if not _ok(P):
@@ -422,7 +422,7 @@ def ski_ekf_rts(
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
-        _phi_qd(x_filt[k], u[k], dt, g0, mno, qd, Phi, Qd, M, D)
+        _phi_qd(x_filt[k], u[k], dt, g0, mno, qd[k], Phi, Qd, M, D)
         _predict_cov(Pf, Phi, Qd, Pp)
         for i in range(N):
             if not (Pp[i, i] > 0.0):

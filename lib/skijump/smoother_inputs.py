@@ -29,11 +29,13 @@ from scipy.ndimage import median_filter
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.frames import Frame, gnss_local_columns
+from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.magfield import reference_field
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
 from sportfusion.skijump.events import gnss_speed
 from sportfusion.skijump.hillfile import Hill
+from sportfusion.skijump.saturation import clipped_steps
 
 IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z", "acc_x", "acc_y", "acc_z")
 
@@ -78,6 +80,12 @@ class SmootherConfig:
     hill_constraints: bool = True
     use_gnss_vel: bool = True
     use_mag: bool = True
+    # saturated IMU samples (sportfusion.skijump.saturation): ranges (0: found from the data), inflated noise
+    gyr_range: float = 0.0
+    acc_range: float = 0.0
+    q_gyr_clipped: float = 3.0
+    q_acc_clipped: float = 50.0
+    clip_margin: float = 0.02
     # windows
     la_delay: float = 0.0
     la_ramp: float = 0.2
@@ -182,6 +190,8 @@ class SkiJumpInputs:
     jumps: list[tuple[float, float]]  # (takeoff, touchdown) [s]
     inrun: np.ndarray  # (n,) bool: c_V,IR and c_H,IR active
     landing: np.ndarray  # (n,) weight 0..1 of c_V,LA
+    clipped: np.ndarray | None = None  # (n, 6) bool: gyro and accelerometer axes clipped (sensor range)
+    mag_disturbed: np.ndarray | None = None  # (n,) bool: magnetometer samples skipped as disturbed
 
 
 def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
@@ -361,6 +371,13 @@ def session_inputs(
         mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
     else:
         mag = np.full((t.size, 3), np.nan)
+    # magnetic disturbances (core.magdisturb): skipped.  The raw magnetometer is not calibrated (the smoother
+    # estimates its bias and scale), so the reference strength is the recording's median, not the model's.
+    disturbed = np.zeros(t.size, dtype=bool)
+    okm = np.isfinite(mag).all(axis=1)
+    if okm.sum() > 10:
+        disturbed[okm] = mag_disturbed(t[okm], mag[okm], None)
+        mag[disturbed] = np.nan
     jumps = session_events(table, takeoff, touchdown)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
@@ -391,6 +408,8 @@ def session_inputs(
         jumps=jumps,
         inrun=inrun,
         landing=landing,
+        clipped=clipped_steps(t, u, cfg),
+        mag_disturbed=disturbed,
     )
     return inp, frame
 
@@ -430,4 +449,5 @@ def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
         jumps=inp.jumps,
         inrun=inp.inrun[sl],
         landing=inp.landing[sl],
+        clipped=None if inp.clipped is None else inp.clipped[sl],
     )

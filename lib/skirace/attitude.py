@@ -187,18 +187,24 @@ def dip_from_quiet(
     """
     f = np.asarray(acc_body, float)
     m = np.asarray(mag_body, float)
-    norm = np.linalg.norm(f, axis=-1)
-    k = max(int(round(window_s * fs)), 1)
-    ok = np.isfinite(norm) & np.all(np.isfinite(m), axis=-1)
-    x = np.where(ok, norm, g)
-    kern = np.ones(k) / k
-    mean = np.convolve(x, kern, mode="same")
-    var = np.convolve(x * x, kern, mode="same") - mean**2
-    quiet = ok & (np.abs(norm - g) < tol) & (np.sqrt(np.maximum(var, 0)) < tol / 3)
+    quiet = quiet_mask(f, g, fs, window_s, tol) & np.all(np.isfinite(m), axis=-1)
     if not quiet.any():
         return float("nan"), 0
     s = -np.einsum("ni,ni->n", _unit(m[quiet]), _unit(f[quiet]))
     return float(np.degrees(np.arcsin(np.median(np.clip(s, -1, 1))))), int(quiet.sum())
+
+
+def quiet_mask(acc_body: np.ndarray, g: float, fs: float, window_s: float = 1.0, tol: float = 0.3) -> np.ndarray:
+    """Quiet samples: ``| |f| - g | < tol`` [m/s^2] and the moving 1-sigma of ``|f|`` over ``window_s`` below ``tol/3``."""
+    f = np.asarray(acc_body, float)
+    norm = np.linalg.norm(f, axis=-1)
+    k = max(int(round(window_s * fs)), 1)
+    ok = np.isfinite(norm)
+    x = np.where(ok, norm, g)
+    kern = np.ones(k) / k
+    mean = np.convolve(x, kern, mode="same")
+    var = np.convolve(x * x, kern, mode="same") - mean**2
+    return ok & (np.abs(norm - g) < tol) & (np.sqrt(np.maximum(var, 0)) < tol / 3)
 
 
 def lowpass(x: np.ndarray, fs: float, cutoff_hz: float, order: int = 2) -> np.ndarray:
@@ -224,3 +230,70 @@ def lowpass(x: np.ndarray, fs: float, cutoff_hz: float, order: int = 2) -> np.nd
         filled = np.interp(idx, idx[ok], col[ok])
         out[:, c] = np.where(ok, sosfiltfilt(sos, filled), np.nan)
     return out
+
+
+def magnetometer_plausibility(
+    f_body: np.ndarray,
+    m_body: np.ndarray,
+    f_ref: np.ndarray,
+    m_ref: np.ndarray,
+    norm_ref: float | None = None,
+    angle_tol_deg: float = 5.0,
+    norm_tol: float = 0.2,
+    force_tol: float = 1.0,
+    window: int = 1,
+    reference_ok: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Samples whose magnetometer disagrees with the magnetic model (a disturbed or miscalibrated sensor).
+
+    A rotation keeps angles and lengths, so in every sample the angle between
+    the measured field and the measured specific force must equal the angle
+    between the reference field and the reference specific force (in level,
+    unaccelerated samples: 90 deg plus the inclination), and the field norm
+    must equal the model's intensity.  The angle is compared only where the
+    specific force is trustworthy as a reference: its measured and reference
+    lengths agree within ``force_tol`` [m/s^2] (not in free fall, and not in
+    motion that the reference does not know, e.g. low dynamics assumed while
+    turning).  Both quantities are smoothed by a running median over
+    ``window`` samples (vibration and single spikes are not a disturbed
+    sensor); a sample is implausible when the angle differs by more than
+    ``angle_tol_deg`` or the norm by more than ``norm_tol`` (relative).
+
+    Parameters
+    ----------
+    f_body, m_body : (N, 3) specific force [m/s^2] and field (body frame).
+    f_ref : (N, 3) or (3,) reference specific force [m/s^2]; m_ref : (3,) reference field (NED, any unit).
+    norm_ref : field intensity in the unit of ``m_body`` (None: the median of ``|m_body|``, which then
+        tests the norm's steadiness only, for normalised or uncalibrated units).
+    angle_tol_deg : [deg]; norm_tol : [1]; force_tol : [m/s^2]; window : running-median length [samples].
+    reference_ok : (N,) bool, rows whose reference specific force is known (GNSS acceleration, or a quiet
+        sample under the low-dynamics assumption); None: all.
+
+    Returns
+    -------
+    flag : (N,) bool
+    angle_error_deg : (N,) measured minus reference angle between field and specific force [deg], smoothed
+        (NaN where the specific force is not a usable reference)
+    norm_ratio : (N,) ``|m| / norm_ref`` [1], smoothed
+    """
+    from scipy.ndimage import median_filter
+
+    f = np.asarray(f_body, float)
+    m = np.asarray(m_body, float)
+    fr = np.broadcast_to(np.asarray(f_ref, float), f.shape)
+    mr = np.asarray(m_ref, float)
+    cos_meas = np.clip(np.einsum("ni,ni->n", _unit(m), _unit(f)), -1, 1)
+    cos_ref = np.clip(_unit(fr) @ _unit(mr[None, :])[0], -1, 1)
+    err = np.degrees(np.arccos(cos_meas) - np.arccos(cos_ref))
+    usable = np.isfinite(err) & (np.abs(np.linalg.norm(f, axis=1) - np.linalg.norm(fr, axis=1)) < force_tol)
+    if reference_ok is not None:
+        usable &= np.asarray(reference_ok, bool)
+    size = max(1, int(window)) | 1
+    err_s = np.full(err.shape, np.nan)
+    if usable.any():
+        err_s[usable] = median_filter(err[usable], size=size, mode="nearest")
+    mn = np.linalg.norm(m, axis=1)
+    ref = float(np.nanmedian(mn)) if norm_ref is None else float(norm_ref)
+    ratio = median_filter(mn, size=size, mode="nearest") / ref if ref > 0 else np.full(mn.shape, np.nan)
+    flag = (np.abs(np.nan_to_num(err_s)) > angle_tol_deg) | (np.abs(ratio - 1.0) > norm_tol)
+    return flag, err_s, ratio

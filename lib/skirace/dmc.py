@@ -26,7 +26,15 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import G_STANDARD, normal_gravity
 from sportfusion.core.magfield import field_from_angles, inclination_declination, reference_field
 from sportfusion.core.rotations import local_to_ned, ned_to_local
-from sportfusion.skirace.attitude import coriolis_ned, dip_from_quiet, dmc_attitude, lowpass, reference_specific_force
+from sportfusion.skirace.attitude import (
+    coriolis_ned,
+    dip_from_quiet,
+    dmc_attitude,
+    lowpass,
+    magnetometer_plausibility,
+    quiet_mask,
+    reference_specific_force,
+)
 
 
 @dataclass
@@ -71,6 +79,10 @@ def dmc_session(
     lowpass_hz: float = 5.0,
     coriolis: bool = False,
     free_fall: float = 2.0,
+    mag_unit: str | None = "uT",
+    dip_tol: float = 5.0,
+    angle_tol: float = 5.0,
+    norm_tol: float = 0.2,
 ) -> DMCSessionResult:
     """Attitude per IMU row of a session from a DMC and the GNSS acceleration.
 
@@ -92,6 +104,14 @@ def dmc_session(
     lowpass_hz : zero-phase low-pass of the raw DMC channels [Hz] (0: none).
     coriolis : include the Coriolis and transport terms of eq 9 (needs ``vel`` and ``site``).
     free_fall : |f| below this [m/s^2] flags ``dmc_singular``.
+    mag_unit : unit of ``mag`` (``uT``: its norm is compared with the model's intensity; else only its
+        steadiness).
+    dip_tol : largest difference [deg] between the inclination from the data and the model's before a warning.
+    angle_tol, norm_tol : per-sample plausibility limits [deg], [1]
+        (:func:`sportfusion.skirace.attitude.magnetometer_plausibility`): the field-to-gravity angle is
+        compared with the model's on quiet samples (f = -g known), the field norm with the model's
+        intensity on every sample, both over a 1 s running median; flagged samples are in
+        ``mag_implausible`` and counted in a warning.
     """
     t = np.asarray(t, float)
     n = t.size
@@ -126,13 +146,13 @@ def dmc_session(
         warnings.append(f"no site: gravity is the standard {G_STANDARD} m/s^2")
     # magnetic reference in NED
     info: dict = {"gravity": g}
+    model = None
+    if site is not None and when is not None:
+        model = reference_field(site[0], site[1], site[2], when)
     if mag_ref is not None:
         m_ref = np.asarray(mag_ref, float)
         src = "given"
     else:
-        model = None
-        if site is not None and when is not None:
-            model = reference_field(site[0], site[1], site[2], when)
         if dip_from_data:
             inc, count = dip_from_quiet(f_b, m_b, g, fs)
             if count == 0:
@@ -144,6 +164,16 @@ def dmc_session(
                 warnings.append("no site/date for the declination: yaw is the magnetic azimuth")
             m_ref = field_from_angles(inc, dec)
             src = f"dip from {count} quiet samples"
+            if model is not None:
+                inc_model = inclination_declination(model)[0]
+                info["inclination_model_deg"] = inc_model
+                if abs(inc - inc_model) > dip_tol:
+                    warnings.append(
+                        f"--dip-from-data: measured inclination {inc:.1f} deg vs {inc_model:.1f} deg from the World "
+                        f"Magnetic Model at the site ({inc - inc_model:+.1f} deg, more than {dip_tol:g}): the "
+                        "magnetometer is disturbed or miscalibrated and the attitude tilts with it; implausible "
+                        "samples are flagged in mag_implausible"
+                    )
         elif model is not None:
             m_ref = model
             src = "World Magnetic Model"
@@ -180,6 +210,32 @@ def dmc_session(
         f_b, m_b, f_ref, m_ref, g, weight_acc=weight_acc, weight_mag=weight_mag, free_fall=free_fall, coriolis=cor
     )
     a_dmc = ned_to_local(res.acc_kin_ned, azimuth_deg)
+    # plausibility against the model where there is one (else the reference used), see magnetometer_plausibility
+    check_ref = m_ref if mag_ref is not None or model is None else model
+    norm_ref = float(np.linalg.norm(model)) if model is not None and mag_unit == "uT" else None
+    flag, ang_err, ratio = magnetometer_plausibility(
+        f_b,
+        m_b,
+        f_ref,
+        check_ref,
+        norm_ref,
+        angle_tol_deg=angle_tol,
+        norm_tol=norm_tol,
+        window=int(round(fs)),
+        reference_ok=quiet_mask(f_b, g, fs),  # the angle only where f = -g is known (a GNSS acceleration in a
+        # float episode is off by degrees and would blame the magnetometer)
+    )
+    med_ratio = float(np.nanmedian(ratio))
+    med_err = float(np.nanmedian(ang_err)) if np.isfinite(ang_err).any() else float("nan")
+    info.update({"mag_implausible": int(flag.sum()), "mag_norm_ratio": med_ratio, "mag_angle_error_deg": med_err})
+    if flag.any():
+        what = f"model {norm_ref:.1f} uT" if norm_ref is not None else "its median"
+        warnings.append(
+            f"magnetometer implausible on {int(flag.sum())} of {flag.size} row(s) (flagged in mag_implausible): "
+            f"field norm median {med_ratio * (norm_ref or 1.0):.1f}{' uT' if norm_ref else ''} vs {what} "
+            f"(limit {norm_tol:.0%}), field-to-gravity angle off the model's by {med_err:+.1f} deg median "
+            f"(limit {angle_tol:g} deg)"
+        )
     cols: dict[str, np.ndarray] = {}
 
     def put(name: str, v: np.ndarray) -> None:
@@ -200,6 +256,9 @@ def dmc_session(
     cols["dmc_singular"] = pa.array(sing, mask=~mask)  # null on rows without an attitude
     for i, a in enumerate("xyz"):
         put(f"a{a}_dmc", a_dmc[:, i])
+    bad = np.zeros(n, bool)
+    bad[rows] = flag
+    cols["mag_implausible"] = pa.array(bad, mask=~mask)
     info.update({"rows": int(rows.size), "singular": int(res.singular.sum()), "rate_hz": fs})
     return DMCSessionResult(cols, mask, info, warnings)
 
@@ -256,6 +315,9 @@ def dmc_table(
             when = epoch + float(np.median(t))
     hill = meta.get("hill") or {}
     g0 = options.pop("g0", None) or hill.get("g0")
+    unit = (meta.get("units") or {}).get("mag_x")
+    fmeta = table.schema.field("mag_x").metadata or {}
+    unit = unit or (fmeta.get(b"unit", b"uT").decode() if isinstance(fmeta, dict) else "uT")
     return dmc_session(
         t,
         _xyz(table, "acc_"),  # type: ignore[arg-type]
@@ -266,5 +328,6 @@ def dmc_table(
         site=site or session_site(table, meta),
         when=when,
         g0=g0,  # type: ignore[arg-type]
+        mag_unit=unit,
         **options,  # type: ignore[arg-type]
     )

@@ -12,7 +12,7 @@ import pyarrow as pa
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.events import true_runs
-from sportfusion.core.plots import _col, _new_figure
+from sportfusion.core.plots import _col, _new_figure, legend_outside, stretch_factor
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -92,7 +92,7 @@ def compare_figure(
                 digits = 3 if np.nanmax(np.abs(v)) < 0.1 else 2
                 for yy, vv in zip(y[ok], v[ok], strict=True):
                     ax.annotate(
-                        f"{vv:+.{digits}f}",
+                        f"{vv:+.{digits}f} {unit}" if round(vv, digits) != 0 else f"0 {unit}",
                         (vv, yy),
                         textcoords="offset points",
                         xytext=(3 if vv >= 0 else -3, 0),
@@ -115,18 +115,27 @@ def compare_figure(
                     color="0.15" if nrun == 1 else colours[k % len(colours)],
                 )
                 vals = np.concatenate([vals, sd])
-            ax.legend(loc="lower right", fontsize=7)
         ax.axvline(0.0, color="0.2", lw=0.8)
         lim = np.nanmax(np.abs(vals)) if np.isfinite(vals).any() else 1.0
         lim = lim if lim > 0 else 1.0
-        ax.set_xlim(-1.45 * lim, 1.45 * lim)
+        ax.set_xlim(-1.7 * lim, 1.7 * lim)
         ax.set_title(name, fontsize=10)
         ax.set_xlabel(f"run − reference [{unit}]")
         ax.grid(True, axis="x", lw=0.4, alpha=0.6)
     axes[0].set_yticks(range(len(order)), labels, fontsize=8)
     axes[0].set_ylim(len(order) - 0.5, -0.5)  # first gate on top
-    if nrun > 1:
-        axes[-1].legend(loc="lower right", fontsize=8, title="run")
+    if nrun == 1:
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        handles = [
+            Patch(color="tab:green", label=f"{others[0]} gains"),
+            Patch(color="tab:red", label=f"{others[0]} loses"),
+        ]
+        handles += [h for h in axes[-1].get_legend_handles_labels()[0] if isinstance(h, Line2D)]
+        legend_outside(axes[-1], handles=handles)
+    else:
+        legend_outside(axes[-1], title="run")
     vs = ", ".join(others)
     fig.suptitle(
         title or f"{vs} vs reference {ref} (run minus reference; green: gain, red: loss)"
@@ -158,11 +167,12 @@ def _shade(ax: Axes, spans: list[tuple[float, float]]) -> None:
         ax.axvspan(a, b, color="tab:red", alpha=0.12, lw=0, label="RTK float" if k == 0 else None)
 
 
-def spline_figure(table: pa.Table, truth: pa.Table | None = None, title: str = "", width: float = 11.0) -> Figure:
+def spline_figure(table: pa.Table, truth: pa.Table | None = None, title: str = "", width: float = 12.0) -> Figure:
     """Raw GNSS against the smoothing spline, float periods shaded (skiracing-splines Figures 5-6).
 
     Top: plan view (x right, y down the page as in the local frame) of raw ``gnss_x gnss_y`` and the
-    spline ``x y``. Bottom: horizontal distance raw - spline [m] (and spline - truth when a truth
+    spline ``x y``, y stretched by the factor on its label where the run is long and thin
+    (:func:`sportfusion.core.plots.stretch_factor`). Bottom: horizontal distance raw - spline [m] (and spline - truth when a truth
     table is given) against time, RTK-float epochs shaded.
 
     Raises
@@ -192,24 +202,28 @@ def spline_figure(table: pa.Table, truth: pa.Table | None = None, title: str = "
         top.plot(gx[ok], gy[ok], ".", ms=2.5, color="tab:orange", label="GNSS")
     m = np.isfinite(x) & np.isfinite(y)
     top.plot(x[m], y[m], "-", lw=1.0, color="tab:blue", label="spline")
+    # a run is long and thin: stretch y by a stated factor rather than draw a flat line at equal aspect
+    f = stretch_factor(float(np.ptp(x[m])), float(np.ptp(y[m]))) if m.any() else 1
     top.set_xlabel("x [m]")
-    top.set_ylabel("y [m]")
+    top.set_ylabel(f"y [m], stretched ×{f}" if f > 1 else "y [m]")
     top.invert_yaxis()
-    top.set_aspect("equal", adjustable="datalim")
+    top.set_aspect(f, adjustable="datalim")
     top.grid(True, lw=0.4, alpha=0.6)
-    top.legend(fontsize=8, loc="best")
+    legend_outside(top)
     d = np.hypot(gx - x, gy - y)
-    bottom.plot(t[ok], d[ok], ".", ms=2.5, color="tab:orange", label="|GNSS - spline| horizontal")
+    rms = float(np.sqrt(np.nanmean(d[ok] ** 2))) if ok.any() else float("nan")
+    bottom.plot(t[ok], d[ok], ".", ms=2.5, color="tab:orange", label=f"|GNSS - spline|: RMS {rms:.3f} m")
     if truth is not None and "true_x" in truth.column_names:
         tt = schema.floats(truth, "t")
         _, ia, ib = np.intersect1d(np.round(t, 6), np.round(tt, 6), return_indices=True)
         e = np.hypot(x[ia] - _col(truth, "true_x")[ib], y[ia] - _col(truth, "true_y")[ib])
-        bottom.plot(t[ia], e, "-", lw=0.9, color="tab:blue", label="|spline - truth| horizontal")
+        rms_t = float(np.sqrt(np.nanmean(e**2))) if e.size else float("nan")
+        bottom.plot(t[ia], e, "-", lw=0.9, color="tab:blue", label=f"|spline - truth|: RMS {rms_t:.3f} m")
     if fix is not None:
         _shade(bottom, float_spans(t[ok], fix[ok]))
     bottom.set_xlabel("t [s]")
     bottom.set_ylabel("horizontal difference [m]")
     bottom.grid(True, lw=0.4, alpha=0.6)
-    bottom.legend(fontsize=8, loc="upper right")
-    top.set_title(title or "smoothing spline vs raw GNSS (red: RTK float epochs)")
+    legend_outside(bottom)
+    top.set_title(title or "smoothing spline vs raw GNSS, plan view (red: RTK float epochs)")
     return fig

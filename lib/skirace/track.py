@@ -17,8 +17,12 @@ data.  IMU rows between regular epochs are False.
 1-sigma (``std_x std_y std_z``) is written when the input carries position
 sigmas (``std_gnss_*``, else ``gnss_sigma_h``/``gnss_sigma_v``): the input
 sigmas propagated through the smoother (noise only) at the position epochs,
-interpolated linearly to rows between regular epochs, null inside gaps and for
-per-segment smoothing.
+interpolated linearly to rows between regular epochs; inside a gap (a GNSS
+outage) the std also holds how far the track strays from the cubic bridge, as
+measured on the session's own track
+(:mod:`sportfusion.estimators.spline_gaps`), so it grows towards the middle of
+the gap; null for per-segment smoothing.  A warning line says how many rows
+were bridged.
 
 Velocity and acceleration are the spline's first and second derivatives
 (eq 7) in the local frame; ``speed`` is ``|v|``, ``distance`` the curvilinear
@@ -35,8 +39,10 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.rotations import local_to_ned
+from sportfusion.core.rotations import local_to_ned, ned_to_local
 from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, smoothing_spline
+from sportfusion.estimators.spline_gaps import gap_std
+from sportfusion.estimators.spline_robust import robust_weights
 
 GAP_FACTOR = 1.5  # an interval longer than this times the median epoch spacing is a data gap
 
@@ -66,6 +72,9 @@ def smooth_track(
     no_trans: int = 5,
     edge_factor: float = 2.0,
     max_gap: float = 10.0,
+    robust: bool = True,
+    vel: np.ndarray | None = None,
+    speed: np.ndarray | None = None,
 ) -> TrackResult:
     """Fit the weighted smoothing splines to a track and evaluate them at every row.
 
@@ -82,6 +91,10 @@ def smooth_track(
         epochs: 1 / the median sigma of the fixed epochs, so that ``lam`` smooths alike).
     w_float, w_trans, no_trans, edge_factor : eq 6 parameters (:func:`sportfusion.estimators.spline.ambiguity_weights`).
     max_gap : longest data gap [s] bridged; rows inside longer gaps are null.
+    robust : down-weight fixes that disagree with their neighbours beyond their stated accuracy
+        (:func:`sportfusion.estimators.spline_robust.robust_weights`); the weight is written as ``gnss_weight``.
+    vel : (N, 3) receiver velocity in the local frame [m/s] (NaN where absent), or None: screens outliers.
+    speed : (N,) receiver speed over ground [m/s], or None: screens spikes where there is no velocity.
 
     Returns
     -------
@@ -135,6 +148,23 @@ def smooth_track(
             else:
                 sk = None
                 break
+    rw = np.ones(k.size)
+    if robust:
+        vk = None if vel is None else np.asarray(vel, float)[k]
+        if vk is not None:
+            vk = vk[:, : (3 if np.isfinite(vk[:, 2]).any() else 2)]
+        spk = None if speed is None or vk is not None else np.asarray(speed, float)[k]
+        w = np.asarray(w, float)
+        w2 = np.broadcast_to(w.reshape(k.size, -1), (k.size, 3))
+        rw = robust_weights(tk, yk, w2, 0.9 if lam is None else lam, sk, vel=vk, speed=spk)
+        w = w2 * rw[:, None]
+        n_out = int(np.sum(rw < 0.1))
+        if n_out:
+            how = "receiver velocity and " if vk is not None else ("receiver speed and " if spk is not None else "")
+            warnings.append(
+                f"{n_out} of {k.size} GNSS fix(es) disagree with their neighbours ({how}the spline through the others) "
+                "beyond their stated accuracy: weighted down (see column gnss_weight)"
+            )
     fit = smoothing_spline(tk, yk, w, lam, segments=segments, sigma=sk)
 
     # rows that get a value: inside the span and not in a gap longer than max_gap
@@ -169,16 +199,34 @@ def smooth_track(
     filled[rows] = in_gap[rows]
     cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
     if fit.std is not None:
+        edge = np.stack([np.interp(t[rows], tk, fit.std[:, i]) for i in range(3)], axis=1)
+        big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
+        gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
+        # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
+        resid = np.sqrt(np.mean((fit.spline.evaluate(tk)[0] - yk) ** 2, axis=0))
+        inside = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
         for i, a in enumerate("xyz"):
-            s = np.interp(t[rows], tk, fit.std[:, i])
-            s[in_gap[rows]] = np.nan
+            s = edge[:, i].copy()
+            g = in_gap[rows]
+            s[g] = inside[g, i]
             put(f"std_{a}", s)
     elif sigma is not None and segments:
         warnings.append("1-sigma is not computed with per-segment lambda")
+    if filled.any():
+        gap_len = max(b - a for a, b in zip(tk[:-1], tk[1:], strict=True) if b - a > GAP_FACTOR * step)
+        warnings.append(
+            f"{int(filled.sum())} row(s) bridge GNSS gaps (outages) of up to {gap_len:.1f} s "
+            "(spline_filled; their std grows across the gap)"
+        )
+    if robust:
+        gw = np.full(n, np.nan)
+        gw[k] = rw
+        cols["gnss_weight"] = gw
     info = {
         "epochs": int(k.size),
         "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
         "filled_rows": int(filled.sum()),
+        "downweighted": int(np.sum(rw < 0.1)),
         "lambda": [float(v) for v in fit.lam],  # outside the segments when segments are given
         "penalty": [float(v) for v in fit.penalty],  # alpha = (1 - lambda) / lambda [s^3/m with weights in 1/m]
     }
@@ -214,4 +262,28 @@ def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResul
         sv = floats(table, "gnss_sigma_v") if "gnss_sigma_v" in names else sh
         sigma = np.column_stack((sh, sh, sv))
     azimuth = float((meta.get("frame") or {}).get("azimuth_deg", 0.0))
-    return smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, **options)  # type: ignore[arg-type]
+    vel = speed = None
+    if "vel_n" in names and "vel_e" in names:
+        vd = floats(table, "vel_d") if "vel_d" in names else np.full(t.size, np.nan)
+        ned = np.column_stack((floats(table, "vel_n"), floats(table, "vel_e"), np.nan_to_num(vd)))
+        vel = ned_to_local(ned, azimuth)  # rotation about the vertical: vel_d stays the z component
+        vel[~np.isfinite(vd), 2] = np.nan
+    if "gnss_speed" in names:
+        speed = floats(table, "gnss_speed")
+    flat = not np.isfinite(pos[:, 2]).any() and (np.isfinite(pos[:, 0]) & np.isfinite(pos[:, 1])).any()
+    if not flat:
+        return smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, vel=vel, speed=speed, **options)  # type: ignore[arg-type]
+    # a 2-D track (gps2hill: no height, gnss_z null): smooth x and y on a flat z, leave every z output null
+    pos = pos.copy()
+    pos[:, 2] = np.where(np.isfinite(pos[:, 0]), 0.0, np.nan)
+    if sigma is not None:
+        sigma = sigma.copy()
+        sigma[:, 2] = np.where(np.isfinite(sigma[:, 0]), sigma[:, 0], np.nan)
+    if vel is not None:
+        vel[:, 2] = np.nan  # no height: the velocity screen works in x/y
+    res = smooth_track(t, pos, fix, sigma, azimuth_deg=azimuth, vel=vel, speed=speed, **options)  # type: ignore[arg-type]
+    for c in ("z", "vz", "az", "std_z"):
+        if c in res.columns:
+            res.columns[c] = np.full(len(t), np.nan)
+    res.warnings.append("a 2-D track (gnss_z null): z, vz, az left null; speed and distance are horizontal")
+    return res

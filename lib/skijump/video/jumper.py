@@ -15,6 +15,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.session import time_step_problem
 from sportfusion.skijump.video.camera import Camera, Slope
 from sportfusion.skijump.video.scene import Scene, _rgb
 
@@ -45,7 +46,7 @@ class Trajectory:
         if self.t.ndim != 1 or self.r.shape != (self.t.size, 3) or self.t.size < 4:
             raise InputError("trajectory: expected times (n,) and positions (n, 3) with n >= 4")
         if not np.all(np.diff(self.t) > 0):
-            raise InputError("trajectory: times must be strictly increasing")
+            raise InputError(f"trajectory: times must be strictly increasing: {time_step_problem(self.t)}")
         if not self.t[0] < self.t_touchdown < self.t[-1]:
             raise InputError("trajectory: the touch-down time lies outside the trajectory's time span")
 

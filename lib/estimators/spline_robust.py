@@ -1,0 +1,209 @@
+"""Robust (outlier-resistant) weights for the smoothing spline of a GNSS track.
+
+Phones and watches report single fixes, or a few in a row, tens of metres
+off (multipath, a switch of satellite set), often at a standstill.  A
+smoothing spline that nearly interpolates follows such a jump and turns it
+into a speed of 30 m/s or more.  Two screens, both measured against each
+fix's own 1-sigma, give every epoch a robust weight in [0, 1] that
+multiplies its eq-6 weight:
+
+1. **Leave-one-out residuals of the spline** (iteratively reweighted).  For a
+   linear smoother ``g = H y`` the leave-one-out residual is
+   ``e_i = (y_i - g_i) / (1 - H_ii)`` exactly; ``H_ii = w_i [(W + K)^-1]_ii``
+   comes from the same O(n) banded recursion as the spline's 1-sigma.  A fix
+   that disagrees with the curve through its neighbours gets a large ``e_i``
+   even when the spline itself bends to meet it.
+2. **The receiver's own velocity** (``vel_n vel_e [vel_d]``, Doppler: far
+   better than differenced fixes).  The track integrated from the velocity,
+   ``P(t_i) = sum (v_{k-1} + v_k)/2 dt_k``, is smooth and accurate over tens
+   of seconds; ``D_i = y_i - P(t_i)`` is then a slow drift plus the fix noise,
+   and a jump -- one fix or a plateau of several -- stands out of the running
+   median of ``D`` over ``window`` seconds.  With only the receiver's speed
+   (``gnss_speed``, no direction), a fix whose distance to *both* neighbours
+   exceeds what that speed allows (plus 4 sigma) is a spike.
+
+The standardised residual is ``z_i = |e_i| / s_i`` (3-D norm over
+``sqrt(d)``) with ``s_i`` the largest of the fix's stated sigma, the
+robust spread (1.4826 MAD) of the residuals and ``floor`` (1 m), so a
+receiver with optimistic sigmas is not punished for its ordinary noise and
+an RTK track's decimetre float offsets and gap edges are left to eq 6.  The weight is Tukey's
+biweight ``(1 - (z/c)^2)^2`` for ``z < c`` (``c = 4.685``: 95 % efficiency on
+Gaussian noise), else ``floor`` (never 0, the spline needs positive weights).
+Velocity and speed screens only ever lower a weight.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sportfusion.estimators.spline import _minv_diag, penalty_from_lambda, smoothing_spline
+
+TUKEY_C = 4.685
+
+
+def tukey(z: np.ndarray, c: float = TUKEY_C, floor: float = 1e-6) -> np.ndarray:
+    """Tukey's biweight of standardised residuals ``z`` (>= ``floor``)."""
+    u = np.abs(np.asarray(z, float)) / c
+    return np.maximum(np.where(u < 1, (1 - u * u) ** 2, 0.0), floor)
+
+
+def _scale(e: np.ndarray, sigma: np.ndarray | None, floor: float) -> np.ndarray:
+    """Per-epoch, per-axis scale: max(stated sigma, 1.4826 MAD of the residuals, floor)."""
+    mad = 1.4826 * np.median(np.abs(e - np.median(e, axis=0)), axis=0)
+    mad = np.maximum(mad, max(floor, 1e-9))
+    s = np.broadcast_to(mad, e.shape).copy()
+    if sigma is not None:
+        sg = np.asarray(sigma, float).reshape(e.shape[0], -1)
+        sg = np.broadcast_to(sg, e.shape)
+        s = np.where(np.isfinite(sg) & (sg > s), sg, s)
+    return s
+
+
+def _z(e: np.ndarray, sigma: np.ndarray | None, floor: float) -> np.ndarray:
+    return np.sqrt(np.mean((e / _scale(e, sigma, floor)) ** 2, axis=1))
+
+
+def loo_residuals(t: np.ndarray, y: np.ndarray, w: np.ndarray, lam: float, power: float = 1.0) -> np.ndarray:
+    """Leave-one-out residuals ``(y - S(t)) / (1 - H_ii)^power`` of the smoothing spline, per column.
+
+    Parameters
+    ----------
+    t : (n,) epoch times [s]; y : (n, d) observations [m]; w : (n, d) weights [1/m]; lam : smoothing factor.
+    power : 1 gives the leave-one-out residual, 0.5 the studentised one.
+    """
+    fit = smoothing_spline(t, y, w, lam)
+    r = y - fit.spline.g
+    h = np.diff(t)
+    alpha = penalty_from_lambda(float(lam))
+    e = np.empty_like(r)
+    if not np.isfinite(alpha) or t.size < 4:
+        return r
+    hii = np.zeros(t.size)
+    for c in range(y.shape[1]):
+        if not (c and np.array_equal(w[:, c], w[:, c - 1])):  # same weights: same hat diagonal
+            hii = np.real(w[:, c] * _minv_diag(h, w[:, c], alpha))
+        e[:, c] = r[:, c] / np.maximum(1.0 - hii, 1e-9) ** power
+    return e
+
+
+def velocity_residuals(t: np.ndarray, y: np.ndarray, vel: np.ndarray, window: float = 20.0) -> np.ndarray:
+    """Fix minus the velocity-integrated track, minus the running median of that difference [m].
+
+    ``vel`` is (n, k) in the axes of the first k columns of ``y`` (NaN where
+    unknown: those epochs get residual 0).  ``window`` [s] is the running
+    median's width: plateaus of bad fixes shorter than half of it are found.
+    """
+    n, k = t.size, vel.shape[1]
+    out = np.zeros((n, y.shape[1]))
+    ok = np.isfinite(vel).all(axis=1)
+    if ok.sum() < 4:
+        return out
+    idx = np.flatnonzero(ok)
+    tv, v = t[idx], vel[idx]
+    steps = 0.5 * (v[1:] + v[:-1]) * np.diff(tv)[:, None]
+    p = np.vstack([np.zeros((1, k)), np.cumsum(steps, axis=0)])
+    d = y[idx, :k] - p
+    half = 0.5 * window
+    lo = np.searchsorted(tv, tv - half, side="left")
+    hi = np.searchsorted(tv, tv + half, side="right")
+    med = np.array([np.median(d[a:b], axis=0) for a, b in zip(lo, hi, strict=True)])
+    out[idx, :k] = d - med
+    return out
+
+
+def speed_spikes(
+    t: np.ndarray, y: np.ndarray, speed: np.ndarray, sigma: np.ndarray | None, max_run: int = 10
+) -> np.ndarray:
+    """Boolean (n,): fixes that jumped away and back faster than the receiver's speed allows.
+
+    An interval is a jump when the horizontal distance between its fixes
+    exceeds ``max(speed_a, speed_b) dt 1.2 + 1 m/s dt + 4 sqrt(2) sigma``.  A
+    jump out and a jump back at most ``max_run`` epochs later whose excess
+    displacements (the displacement minus the median of the neighbouring
+    intervals' displacements) cancel to within half of the larger one enclose
+    a run of bad fixes (one fix: a spike; several: a plateau).
+    """
+    n = t.size
+    bad = np.zeros(n, bool)
+    if n < 3:
+        return bad
+    d = np.diff(y[:, :2], axis=0)
+    dist = np.linalg.norm(d, axis=1)
+    dt = np.diff(t)
+    sp = np.asarray(speed, float)
+    sp = np.where((sp >= 0) & (sp < 150.0), sp, np.nan)  # a wrapped or invalid value is no speed
+    vmax = np.fmax(sp[1:], sp[:-1])
+    sg = np.full(n, np.nan) if sigma is None else np.asarray(sigma, float).reshape(n, -1)[:, 0]
+    sg = np.where(np.isfinite(sg) & (sg > 0), sg, np.nanmedian(sg) if np.isfinite(sg).any() else 3.0)
+    allowed = vmax * dt * 1.2 + 1.0 * dt + 4.0 * np.sqrt(2.0) * np.fmax(sg[1:], sg[:-1])
+    jumps = np.flatnonzero(np.isfinite(vmax) & (dist > allowed))
+    ok = np.ones(n - 1, bool)
+    ok[jumps] = False
+    used = np.zeros(n - 1, bool)
+    for ia, a in enumerate(jumps):
+        if used[a]:
+            continue
+        for b in jumps[ia + 1 :]:
+            if b - a > max_run:
+                break
+            if used[b]:
+                continue
+            near = np.r_[max(a - 3, 0) : a, b + 1 : min(b + 4, n - 1)]
+            near = near[ok[near]]
+            expect = np.median(d[near], axis=0) if near.size else np.zeros(2)
+            ja, jb = d[a] - expect, d[b] - expect
+            if np.linalg.norm(ja + jb) < 0.5 * max(np.linalg.norm(ja), np.linalg.norm(jb)):
+                bad[a + 1 : b + 1] = True
+                used[a] = used[b] = True
+                break
+    return bad
+
+
+def robust_weights(
+    t: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    lam: float,
+    sigma: np.ndarray | None = None,
+    *,
+    vel: np.ndarray | None = None,
+    speed: np.ndarray | None = None,
+    iterations: int = 4,
+    c: float = TUKEY_C,
+    window: float = 20.0,
+    floor: float = 1.0,
+) -> np.ndarray:
+    """Robust weight in (0, 1] per epoch (see the module text); multiply the spline weights by it.
+
+    Parameters
+    ----------
+    t : (n,) epoch times [s].
+    y : (n, d) positions in a local frame [m] (x, y horizontal first when ``vel``/``speed`` are given).
+    w : (n, d) spline weights [1/m].
+    lam : the smoothing factor used for the spline.
+    sigma : (n,) or (n, d) stated 1-sigma of the fixes [m], or None.
+    vel : (n, k) receiver velocity in the axes of ``y[:, :k]`` [m/s] (NaN where absent), or None.
+    speed : (n,) receiver speed over ground [m/s] (NaN where absent), or None.
+    iterations : reweighting passes of the leave-one-out screen.
+    c : Tukey constant [robust sigmas].
+    window : running-median width of the velocity screen [s].
+    floor : smallest scale [m]: a fix within ``c * floor`` of its neighbours' curve is never weighted
+        down, so an RTK track (cm sigmas) keeps its float epochs (eq 6 weighs those) and its gap edges.
+    """
+    n = t.size
+    base = np.ones(n)
+    if n < 5:
+        return base
+    if vel is not None and np.isfinite(vel).all(axis=1).sum() >= 4:
+        base = np.minimum(base, tukey(_z(velocity_residuals(t, y, vel, window), sigma, floor), c))
+    if speed is not None and np.isfinite(speed).any():
+        base[speed_spikes(t, y, speed, sigma)] = 1e-6
+    loo = np.ones(n)
+    for _ in range(iterations):
+        e = loo_residuals(t, y, w * (base * loo)[:, None], lam)
+        new = tukey(_z(e, sigma, floor), c)
+        done = np.allclose(new, loo, atol=1e-3)
+        loo = new
+        if done:
+            break
+    return np.maximum(base * loo, 1e-6)
