@@ -17,6 +17,7 @@ BATCH ?= batch-out
 all: test
 
 $(STAMP): pyproject.toml
+	@echo "installing dependencies into $(VENV), about a minute (newest versions pyproject.toml allows)"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'
 	touch $@
@@ -65,6 +66,12 @@ demo: $(STAMP)
 
 # a sessions folder (one sub-folder per session with config.mk), N jobs: make batch SESSIONS=dir JOBS=2
 JOBS ?= 2
+# a missing SESSIONS folder: one line saying what to pass, not make's three error lines
+ifneq ($(filter batch,$(MAKECMDGOALS)),)
+ifeq ($(wildcard $(SESSIONS)/.),)
+$(error no sessions folder '$(SESSIONS)': pass one, make batch SESSIONS=dir (a sub-folder per session, each with a config.mk; e.g. SESSIONS=fixtures))
+endif
+endif
 batch: $(STAMP)
 	$(MAKE) --no-print-directory -j $(JOBS) -f pipelines/batch.mk SESSIONS=$(SESSIONS) OUT=$(BATCH)
 

@@ -21,6 +21,7 @@ import pyarrow as pa
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
+from sportfusion.core.describe import ms_to_kmh
 from sportfusion.core.errors import InputError
 
 __all__ = [
@@ -217,8 +218,14 @@ def summary_table(rows: list[dict[str, Any]]) -> pa.Table:
 
 def format_summary(rows: list[dict[str, Any]]) -> str:
     """A readable table: one line per session, then the failed sessions with their errors."""
-    head = f"{'session':<16} {'sport':<9} {'status':<7} {'dur[s]':>7} {'vmax[m/s]':>9} {'L[m]':>7} {'L_video':>7} {'v_TO':>6} {'pos_rms[m]':>10} {'vel_rms':>8}"
+    head = (
+        f"{'session':<16} {'sport':<9} {'status':<7} {'dur[s]':>7} {'vmax[m/s]':>9} {'[km/h]':>7} {'L[m]':>7} "
+        f"{'L_video':>7} {'v_TO[m/s]':>9} {'[km/h]':>7} {'pos_rms[m]':>10} {'vel_rms[m/s]':>12}"
+    )
     lines = [head, "-" * len(head)]
+
+    def kmh(v: Any) -> float | None:
+        return None if v is None else ms_to_kmh(v)
 
     def f(v: Any, fmt: str) -> str:
         missing = v is None or (isinstance(v, float) and not np.isfinite(v))
@@ -227,8 +234,9 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         lines.append(
             f"{r['session']:<16} {str(r.get('sport')):<9} {r['status']:<7} {f(r.get('duration'), '7.1f')} "
-            f"{f(r.get('max_speed'), '9.2f')} {f(r.get('jump_length'), '7.2f')} {f(r.get('video_jump_length'), '7.2f')} "
-            f"{f(r.get('takeoff_speed'), '6.2f')} {f(r.get('pos_rms'), '10.3f')} {f(r.get('vel_rms'), '8.3f')}"
+            f"{f(r.get('max_speed'), '9.2f')} {f(kmh(r.get('max_speed')), '7.1f')} {f(r.get('jump_length'), '7.2f')} "
+            f"{f(r.get('video_jump_length'), '7.2f')} {f(r.get('takeoff_speed'), '9.2f')} "
+            f"{f(kmh(r.get('takeoff_speed')), '7.1f')} {f(r.get('pos_rms'), '10.3f')} {f(r.get('vel_rms'), '12.3f')}"
         )
     failed = [r for r in rows if r["status"] != "ok"]
     lines.append(f"\n{len(rows) - len(failed)} of {len(rows)} sessions ok, {len(failed)} failed")

@@ -130,6 +130,8 @@ _PNG = str(Path(tempfile.gettempdir()) / "sportfusion-contract.png")
 _FIX = Path(__file__).resolve().parents[1] / "fixtures"
 #: Extra arguments a tool needs before it reads its input (side inputs); filled as tools land.
 EXTRA: dict[str, list[str]] = {
+    # without --kind detect-events takes the kind from the metadata, and this bare session names none
+    "detect-events": ["--kind", "grips"],
     # plot writes an image, so its output file is required
     "plot track": ["-o", _PNG],
     "plot speed": ["-o", _PNG],

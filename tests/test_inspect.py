@@ -8,10 +8,12 @@ import json
 
 import numpy as np
 import pyarrow as pa
+import pytest
 from click.testing import CliRunner
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
 from sportfusion.core.describe import sensor_rates
 from sportfusion.core.session import Stream, merge_streams
 from sportfusion.tools.inspect_cmd import main
@@ -60,8 +62,8 @@ def test_plain_view_has_every_part():
     head = lines.index("head:")
     tail = lines.index("tail:")
     assert tail - head == 5  # title, header, 3 rows
-    assert lines[head + 2].split()[0] == "0"
-    assert lines[-1].split()[0] == f"{table.column('t')[-1].as_py():.6g}"
+    assert lines[head + 2].split()[0] == "0.000"  # seconds with 3 decimals
+    assert lines[-1].split()[0] == f"{table.column('t')[-1].as_py():.3f}"
 
 
 def test_csv_dumps_every_row_and_json_the_metadata():
@@ -70,8 +72,13 @@ def test_csv_dumps_every_row_and_json_the_metadata():
     assert rows[0] == table.column_names
     assert len(rows) - 1 == table.num_rows
     assert float(rows[6][0]) == table.column("t")[5].as_py()
-    meta = json.loads(run(["--json"], data))
-    assert meta == sfio.read_table(io.BytesIO(data))[1]
+    doc = json.loads(run(["--json"], data))
+    assert doc["metadata"] == sfio.read_table(io.BytesIO(data))[1]
+    assert doc["rows"] == table.num_rows
+    units = {c["name"]: c["unit"] for c in doc["columns"]}
+    assert [c["name"] for c in doc["columns"]] == table.column_names
+    for name in table.column_names:
+        assert units[name] == (schema.unit_of(name) or ""), name
     res = CliRunner().invoke(main, ["--csv", "--json"], input=data)
     assert res.exit_code == 2
 
@@ -83,3 +90,18 @@ def test_sensor_rates_of_an_irregular_stream_use_the_median_step():
     assert r["sensor"] == "magnetometer" and r["samples"] == 5
     assert abs(r["rate_hz"] - 10.0) < 1e-9  # the mean step would say 3.08 Hz
     assert (r["t_first"], r["t_last"]) == (0.0, 1.3)
+
+
+def test_rows_print_lat_lon_to_a_millimetre_and_json_lists_units():
+    """6 significant digits would print 47.4049 (~10 m); a decimetre needs >= 6 decimals, we print 8."""
+    t = np.arange(4) * 0.1
+    lat = 47.40491234 + 1e-7 * np.arange(4)
+    table, _ = merge_streams([Stream("gps", t, {"lat": lat, "lon": 10.29451234 + 0 * t, "h": 948.1234 + 0 * t})])
+    data = sfio.table_to_bytes(table, sfmeta.new_meta("session", 1.7e9))
+    out = run(["--rows", "2"], data)
+    head = out.splitlines()[out.splitlines().index("head:") + 2]
+    assert "47.40491234" in head and "10.29451234" in head and "948.123" in head
+    doc = json.loads(run(["--json"], data))
+    units = {c["name"]: c["unit"] for c in doc["columns"]}
+    assert units == {"t": "s", "lat": "deg", "lon": "deg", "h": "m"}
+    assert doc["sensors"][0]["sensor"] == "gnss" and doc["sensors"][0]["rate_hz"] == pytest.approx(10.0)

@@ -52,7 +52,7 @@ def test_metrics_of_the_true_trajectory_match_the_simulator():
     out, jmeta, msg = jump_metrics_table(table, meta, hill)
     assert jmeta["kind"] == "jumps" and out.num_rows == 1
     row = {c: out.column(c)[0].as_py() for c in out.column_names}
-    assert row["jump"] == 0
+    assert row["jump"] == 1  # jumps are numbered from 1 everywhere
     assert row["t_takeoff"] == pytest.approx(times["takeoff"], abs=1e-9)
     assert row["flight_time"] == pytest.approx(fig["flight_time"], abs=1e-6)
     assert row["takeoff_speed"] == pytest.approx(fig["takeoff_speed"], abs=0.02)
@@ -66,6 +66,9 @@ def test_metrics_of_the_true_trajectory_match_the_simulator():
     clear = schema.floats(truth, "true_clearance")
     assert np.nanmax(clear) - 1e-6 <= row["max_height"] < 6.0
     assert jmeta["jump_length"] == [row["jump_length"]]
+    # the one-line summary: numbered from 1, km/h beside m/s
+    v = row["takeoff_speed"]
+    assert msg == f"jump 1: {row['jump_length']:.1f} m, {v:.1f} m/s ({v * 3.6:.1f} km/h)"
 
 
 def test_events_outside_the_estimate_are_refused():

@@ -10,6 +10,7 @@ from conftest import run_cli
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
+from sportfusion.core.errors import InputError
 from sportfusion.core.frames import gnss_local_columns
 from sportfusion.evaluate import errors
 from sportfusion.skijump.hillfile import load_hill
@@ -132,7 +133,7 @@ def _slice_bytes(n: int = 300) -> bytes:
 
 
 def test_cli_short_session_with_filtered_output():
-    res = run_cli(["rts-smooth", "--hill", HILL, "--filtered", "-q"], stdin=_slice_bytes())
+    res = run_cli(["rts-smooth", "--hill", HILL, "--filtered", "--no-hill-constraints", "-q"], stdin=_slice_bytes())
     assert res.returncode == 0, res.stderr.decode()
     assert res.stderr == b""
     import io
@@ -143,6 +144,23 @@ def test_cli_short_session_with_filtered_output():
     meta = sfmeta.decode(table.schema.metadata[b"sportfusion"])
     assert meta["provenance"][-1]["tool"] == "rts-smooth"
     assert "filt_x" in table.column_names and table.column("x").null_count == 0
+
+
+def test_no_events_is_refused_not_guessed():
+    """Without take-off/touch-down the hill constraints would be placed from speed alone (roll errors ~10x):
+    refused in one line naming the three ways out; each way out runs."""
+    res = run_cli(["rts-smooth", "--hill", HILL], stdin=_slice_bytes())
+    assert res.returncode == 1 and res.stdout == b""
+    lines = res.stderr.decode().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: rts-smooth: no take-off/touch-down events"), lines
+    for way in ("detect-events --kind jump", "--takeoff/--touchdown", "--no-hill-constraints"):
+        assert way in lines[0]
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    with pytest.raises(InputError, match="no take-off/touch-down"):
+        rts_smooth_table(tab.slice(0, 300), meta, load_hill(HILL))
+    # explicit events (inside the slice) are accepted by the same call
+    out, m, _ = rts_smooth_table(tab.slice(0, 300), meta, load_hill(HILL), takeoff=[1.0], touchdown=[2.0])
+    assert m["rts"]["jumps"] == [{"takeoff": 1.0, "touchdown": 2.0}] and out.column("x").null_count == 0
 
 
 @pytest.mark.parametrize(
@@ -258,6 +276,6 @@ def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
 
     tab, meta = sfio.read_table(FIX + "session.parquet")
     hill = load_hill(HILL)
-    cfg = SmootherConfig(p0_quat=0.0, r_c_q=0.0, passes=1)
+    cfg = SmootherConfig(p0_quat=0.0, r_c_q=0.0, passes=1, hill_constraints=False)
     with pytest.raises(InputError, match=r"step 0 \(t = 0\.000 s\)"):
         rts_smooth_table(tab.slice(0, 200), meta, hill, cfg, engine=engine)

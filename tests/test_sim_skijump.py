@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 import subprocess
 import sys
 import zipfile
@@ -11,11 +12,13 @@ from functools import reduce
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pytest
 from conftest import ROOT
 from scipy.optimize import minimize_scalar
 
 from sportfusion.core import io as sfio
+from sportfusion.core import meta as sfmeta
 from sportfusion.core import rotations, schema
 from sportfusion.core.frames import Frame
 from sportfusion.skijump import kinematics as kin
@@ -262,14 +265,108 @@ def test_cli_bad_distance_and_hill(tmp_path):
     assert res.returncode == 1 and res.stderr.decode().startswith("Error: simulate skijump: ")
 
 
+# -- a regenerated fixture is compared as numbers, never byte for byte -------------------------
+# A fresh install picks up newer numpy/scipy/numba/pyproj releases whose last bits differ (2.6e-5 m in
+# true_x was seen).  Tolerance: 1e-6 of each column's span (0.2 mm on a 200 m track, 5e-5 m/s^2 on the
+# accelerometer) plus 1e-9; text files (CSV, NMEA) number for number, a printed number within 5 units of
+# its last printed digit.  Anything structural (columns, row counts, sentence types, metadata keys) exact.
+SPAN_RTOL, ATOL = 1e-6, 1e-9
+_NUM = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def _close_tree(a, b, where: str = "") -> None:
+    """Nested metadata: same keys and types, numbers within 1e-6 relative."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and set(a) == set(b), where
+        for k in a:
+            _close_tree(a[k], b[k], f"{where}.{k}")
+    elif isinstance(a, list | tuple):
+        assert isinstance(b, list | tuple) and len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _close_tree(x, y, f"{where}[{i}]")
+    elif isinstance(a, float) and not isinstance(a, bool):
+        assert b == pytest.approx(a, rel=1e-6, abs=ATOL, nan_ok=True), where
+    else:
+        assert a == b, where
+
+
+def assert_tables_close(path_a: Path, path_b: Path, kind: str) -> None:
+    a, ma = sfio.read_table(path_a, kind=kind)
+    b, mb = sfio.read_table(path_b, kind=kind)
+    assert a.column_names == b.column_names and a.num_rows == b.num_rows, path_a.name
+    for name in a.column_names:
+        ca, cb = a.column(name), b.column(name)
+        assert ca.type == cb.type, name
+        if pa.types.is_floating(ca.type) or pa.types.is_integer(ca.type):
+            x, y = schema.floats(a, name), schema.floats(b, name)
+            assert np.array_equal(np.isnan(x), np.isnan(y)), name
+            ok = ~np.isnan(x)
+            span = float(np.ptp(x[ok])) if ok.any() else 0.0
+            np.testing.assert_allclose(y[ok], x[ok], rtol=0, atol=ATOL + SPAN_RTOL * span, err_msg=name)
+        else:
+            assert ca.equals(cb), name
+    for m in (ma, mb):
+        m.pop("provenance", None)
+    _close_tree(ma, mb, path_a.name)
+
+
+def _last_digit(text: str) -> float:
+    mant = text.lower().split("e")[0]
+    exp = int(text.lower().split("e")[1]) if "e" in text.lower() else 0
+    decimals = len(mant.split(".")[1]) if "." in mant else 0
+    return 10.0 ** (exp - decimals)
+
+
+def assert_text_close(a: str, b: str, name: str, seps: str = ",") -> None:
+    """Two text files field by field: words equal, numbers within 5 units of their last printed digit."""
+    la, lb = a.splitlines(), b.splitlines()
+    assert len(la) == len(lb), name
+    for i, (x, y) in enumerate(zip(la, lb, strict=True)):
+        x, y = x.split("*")[0], y.split("*")[0]  # an NMEA checksum follows the numbers it covers
+        fx, fy = re.split(f"[{seps}]", x), re.split(f"[{seps}]", y)
+        assert len(fx) == len(fy), f"{name}:{i + 1}"
+        for u, v in zip(fx, fy, strict=True):
+            if u == v:
+                continue
+            assert _NUM.match(u) and _NUM.match(v), f"{name}:{i + 1}: {u!r} vs {v!r}"
+            tol = 5 * max(_last_digit(u), _last_digit(v))
+            assert abs(float(u) - float(v)) <= tol, f"{name}:{i + 1}: {u} vs {v}"
+
+
 @pytest.mark.slow
-def test_fixture_regenerates_bit_for_bit(tmp_path):
+def test_fixture_regenerates_within_tolerance(tmp_path):
     res = subprocess.run(
         [sys.executable, str(ROOT / "fixtures" / "make_skijump.py"), str(tmp_path)], capture_output=True, timeout=300
     )
     assert res.returncode == 0, res.stderr
-    for name in ("session.parquet", "truth.parquet", "raw/phyphox.zip", "raw/gnss.nmea", "raw/landing.markers.csv"):
-        assert (tmp_path / name).read_bytes() == (FIXTURES / name).read_bytes(), name
+    assert_tables_close(FIXTURES / "session.parquet", tmp_path / "session.parquet", "session")
+    assert_tables_close(FIXTURES / "truth.parquet", tmp_path / "truth.parquet", "truth")
+    for name in ("raw/gnss.nmea", "raw/landing.markers.csv"):
+        assert_text_close((FIXTURES / name).read_text(), (tmp_path / name).read_text(), name)
+    with zipfile.ZipFile(FIXTURES / "raw" / "phyphox.zip") as za, zipfile.ZipFile(tmp_path / "raw/phyphox.zip") as zb:
+        assert sorted(za.namelist()) == sorted(zb.namelist())
+        for member in za.namelist():
+            text_a, text_b = za.read(member).decode(), zb.read(member).decode()
+            assert_text_close(text_a, text_b, member)
+
+
+def test_numeric_comparison_accepts_last_bits_and_catches_a_millimetre(tmp_path):
+    """The comparison above can fail: a 1 mm change in a 200 m column is caught, 1e-5 m is not."""
+    assert_text_close("$GPGGA,130000.00,4724.2635438,N", "$GPGGA,130000.00,4724.2635439,N", "ok")
+    with pytest.raises(AssertionError):
+        assert_text_close("$GPGGA,130000.00,4724.2635438,N", "$GPGGA,130000.00,4724.2635538,N", "bad")
+    with pytest.raises(AssertionError):
+        assert_text_close("1.000E0,GGA", "1.000E0,RMC", "words")
+    x = np.linspace(0.0, 200.0, 101)
+    t = pa.table({"t": np.arange(101) * 0.01, "x": x})
+    m = sfmeta.new_meta("session", 1.7e9)
+    a, b, c = (tmp_path / f"{k}.parquet" for k in "abc")
+    sfio.write_table(t, m, a)
+    sfio.write_table(t.set_column(1, "x", pa.array(x + 1e-5)), m, b)
+    sfio.write_table(t.set_column(1, "x", pa.array(x + 1e-3)), m, c)
+    assert_tables_close(a, b, "session")
+    with pytest.raises(AssertionError):
+        assert_tables_close(a, c, "session")
 
 
 def test_raw_files_hold_the_session(hill):

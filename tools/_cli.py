@@ -1,7 +1,7 @@
 """The command-line frame every sportfusion tool shares.
 
 ``@tool(name, example=...)`` turns a function into a click command with the
-common behaviour of DESIGN.md: INPUT defaults to stdin, ``-o FILE``, ``-v``,
+common behaviour of every command (README, "The tools"): INPUT defaults to stdin, ``-o FILE``, ``-v``,
 ``-q``, ``--version``; a terminal on stdin or stdout is refused (exit 2); bad
 data exits 1 with one line ``Error: <tool>: ...`` and nothing on stdout; a
 closed pipe downstream is quiet.  The function receives a :class:`Tool` as its
@@ -24,6 +24,7 @@ from sportfusion import __version__
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
+from sportfusion.data.papers import citation
 
 T = TypeVar("T")
 
@@ -129,6 +130,14 @@ class Group(CleanExit, click.Group):
     """A click group that exits cleanly as a console script (see :class:`CleanExit`)."""
 
 
+def papers_epilog(cites: tuple[str, ...]) -> str:
+    """Help-text paragraphs citing the papers ``cites`` (short names) in full; empty when none."""
+    if not cites:
+        return ""
+    refs = "\n\n".join(f"[{k}] {citation(k)}" for k in cites)
+    return f"Papers (short names used above):\n\n{refs}\n\n"
+
+
 def tool(
     name: str,
     *,
@@ -136,6 +145,7 @@ def tool(
     reads_table: bool = True,
     writes_table: bool = True,
     input_help: str = "Input table (Parquet); default: standard input.",
+    cites: tuple[str, ...] = (),
 ) -> Callable[[Callable[..., None]], click.Command]:
     """Decorator: build a sportfusion click command around ``func(tool, **options)``.
 
@@ -149,6 +159,9 @@ def tool(
         Add the optional INPUT argument (default stdin) and refuse a terminal on stdin.
     writes_table : bool
         Add ``-o/--output`` and refuse a terminal on stdout.
+    cites : tuple of str
+        Short names of the papers the command implements (keys of
+        :data:`sportfusion.data.papers.PAPERS`); their full citations end the help.
     """
 
     def decorate(func: Callable[..., None]) -> click.Command:
@@ -187,7 +200,8 @@ def tool(
                 sys.exit(1)
 
         doc = (func.__doc__ or "").strip()
-        cmd = click.command(name=name, cls=Command, help=doc, epilog="\b\nExample:\n" + example.strip("\n"))(body)
+        epilog = papers_epilog(cites) + "\b\nExample:\n" + example.strip("\n")
+        cmd = click.command(name=name, cls=Command, help=doc, epilog=epilog)(body)
         cmd = click.version_option(
             __version__, "--version", prog_name=name, message="%(prog)s (sportfusion) %(version)s"
         )(cmd)

@@ -30,6 +30,7 @@ def _labels(inputs: list[str | None], given: tuple[str, ...]) -> list[str]:
 
 @tool(
     "compare-runs",
+    cites=("skiracing-splines",),
     example="""
   compare-runs anna.parquet --run berta.parquet -o compare.parquet
   plot compare compare.parquet -o compare.png

@@ -71,8 +71,29 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
 }
 
 
+def kind_from_meta(meta: dict[str, Any]) -> tuple[str, str] | None:
+    """The event kind a session's metadata implies, with the reason; None when it names no sport.
+
+    A hill (gps2hill --hill, simulate skijump) -> jump; a climbing trial or hold map -> grips; a gate
+    survey -> gates.  Two at once is no answer either.
+    """
+    found = []
+    if meta.get("hill"):
+        found.append(("jump", "the session has a hill"))
+    if meta.get("climbing") or meta.get("holds"):
+        found.append(("grips", "the session is a climbing trial"))
+    if meta.get("gates") or meta.get("survey"):
+        found.append(("gates", "the session has a gate survey"))
+    return found[0] if len(found) == 1 else None
+
+
 @tool(
     "detect-events",
+    cites=(
+        "skijump",
+        "climbing",
+        "gates",
+    ),
     example="""
   simulate boulder --seed 1 --holds holds.parquet | detect-events --kind grips > trial.parquet
   detect-events --kind grips --window 17 --threshold 0.5 hand.parquet -o hand_grips.parquet
@@ -84,9 +105,9 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
 @click.option(
     "--kind",
     type=click.Choice(sorted(RUNNERS)),
-    default="grips",
-    show_default=True,
-    help="Events to detect: grips (low-motion windows of a hand IMU -> columns grip, imu_saturated); "
+    default=None,
+    help="Events to detect; default: the kind the session's metadata implies (a hill -> jump, a climbing "
+    "trial or hold map -> grips, a gate survey -> gates), else required. grips (low-motion windows of a hand IMU -> columns grip, imu_saturated); "
     "jump (ski-jump take-off and touch-down -> event rows, skijump Appendix A); "
     "gates (magnet gate crossings -> event rows 'gate' with gate_b_peak, gate_distance, turn; gates paper).",
 )
@@ -217,8 +238,10 @@ RUNNERS: dict[str, Callable[[pa.Table, dict[str, Any], dict[str, Any]], tuple[pa
     help="gates: the magnet's calibration table, CSV 'distance [m], peak intensity [1]' (or Parquet distance, "
     "gate_b_peak), fitted with the cube law; default: calibrated from the simulator's magnet.",
 )
-def main(tool: Tool, kind: str, **options: Any) -> None:
-    """Detect events in a session. grips: a moving window centred on each IMU
+def main(tool: Tool, kind: str | None, **options: Any) -> None:
+    """Detect events in a session, one kind per run; without --kind the kind
+    comes from the session's metadata (a hill: jump; a climbing trial: grips;
+    a gate survey: gates) and a session that names none is refused.  grips: a moving window centred on each IMU
     sample flags a grip when the angular rate (rotated to the world frame with
     the device's own orientation dev_q0..3 when present) and the specific force
     barely vary (climbing paper §III; the first and last window/2 samples are
@@ -234,6 +257,16 @@ def main(tool: Tool, kind: str, **options: Any) -> None:
     from the simulator's magnet or --magnet-calibration), and the turn side from
     the sign of the angular rate about the trunk's long axis (-z: gyr_z > 0 -> R)."""
     table, meta = tool.read()
+    if kind is None:
+        implied = kind_from_meta(meta)
+        if implied is None:
+            raise click.UsageError(
+                "no --kind given and the session's metadata names no sport (no hill, climbing trial or gate "
+                "survey); pass --kind jump, --kind grips or --kind gates"
+            )
+        kind = implied[0]
+        tool.info(f"--kind {kind}: {implied[1]}")
+        tool.params["kind"] = kind
     table, meta, message = RUNNERS[kind](table, meta, options)
     summary = (meta.get("events") or [{}])[-1] or {}
     for w in summary.get("warnings", []):

@@ -12,6 +12,7 @@ from sportfusion.tools._options import parse_floats
 
 @tool(
     "dmc-attitude",
+    cites=("skiracing-splines",),
     example="""
   simulate skirace --seed 1 | spline-smooth | dmc-attitude > attitude.parquet
   dmc-attitude session.parquet --site 46.49,9.84,2200 --lowpass 3 -o attitude.parquet

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+from typing import Any
 
 import click
+import pyarrow as pa
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
@@ -12,11 +14,15 @@ from sportfusion.evaluate import (
     PAPER_READING_ACCURACY,
     check_estimate,
     compare_jump_lengths,
+    compare_jumps,
     evaluate,
     format_jump_lengths,
+    format_jumps,
     format_text,
     jump_length_meta,
     jump_length_table,
+    jumps_meta,
+    jumps_table,
     summary_meta,
     summary_table,
 )
@@ -25,16 +31,19 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
 
 @tool(
     "evaluate",
+    cites=("skijump",),
     writes_table=False,
     example="""
   simulate skijump --seed 1 --truth truth.parquet | gps2hill --hill oberstdorf_hs106 \\
       | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > est.parquet
   evaluate est.parquet --truth truth.parquet --format text
   evaluate est.parquet --truth truth.parquet -o summary.parquet
+  jump-metrics est.parquet | evaluate --truth truth.parquet --format text   (jump length, take-off speed)
   gps2hill s.parquet --hill oberstdorf_hs106 | evaluate --truth truth.parquet --gnss --format text
   video-jumplength landing1.mp4 landing2.mp4 > vr.parquet    (L_VR, one row per video)
   evaluate tr.parquet --video vr.parquet --format text        (tr.parquet: jump-metrics output, L_TR)""",
-    input_help="Estimate table (Parquet, e.g. rts-smooth output); default: standard input.",
+    input_help="Estimate table (Parquet: a session, e.g. rts-smooth output, or a jumps table from "
+    "jump-metrics); default: standard input.",
 )
 @click.option(
     "--truth",
@@ -107,7 +116,10 @@ def main(
     or, with --format text, a readable table (angles in deg). With --video:
     the jump lengths of a jumps table (L_TR) against a video reading (L_VR),
     Table 7 of the ski-jump paper: per-jump error dL = L_TR - L_VR [m], RMS
-    sqrt(mean(dL^2)) and the upper bound sqrt(mean((|dL| + 0.5 m)^2))."""
+    sqrt(mean(dL^2)) and the upper bound sqrt(mean((|dL| + 0.5 m)^2)).  A jumps
+    table (jump-metrics) with --truth: per jump the jump length [m], take-off
+    speed [m/s, km/h beside], flight time and take-off/touch-down times [s],
+    estimate, truth and error; jumps paired by take-off time (--max-event-dt)."""
     if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
         raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
     if video_path is not None:
@@ -115,11 +127,17 @@ def main(
             raise click.UsageError("--video compares jump lengths; it does not go with --truth or --gnss")
         _jump_lengths(tool, video_path, reading_accuracy, fmt, output)
         return
-    est, est_meta = tool.read(kind="session")
-    check_estimate(est, gnss)
+    est, est_meta = tool.read(kind=("session", "jumps"))
+    if est_meta["kind"] == "session":
+        check_estimate(est, gnss)
+    elif gnss:
+        raise click.UsageError("--gnss evaluates a session's GNSS columns; the input is a jumps table")
     if truth_path is None:
         raise click.UsageError("--truth FILE is required: the truth table written by simulate --truth")
     truth, truth_meta = sfio.read_table(truth_path, kind="truth", what=f"truth file {truth_path}")
+    if est_meta["kind"] == "jumps":
+        _jumps_vs_truth(tool, est, est_meta, truth_path, truth_meta, fmt, output, max_event_dt)
+        return
     ev = evaluate(est, est_meta, truth, truth_meta, gnss=gnss, max_event_dt=max_event_dt)
     if fmt == "text":
         what = "GNSS measurements" if gnss else "estimate"
@@ -134,6 +152,32 @@ def main(
     meta["provenance"] = list(est_meta.get("provenance", []))
     tool.output = output
     tool.write(summary_table(ev), meta)
+
+
+def _jumps_vs_truth(
+    tool: Tool,
+    est: pa.Table,
+    est_meta: dict[str, Any],
+    truth_path: str,
+    truth_meta: dict[str, Any],
+    fmt: str,
+    output: str | None,
+    max_event_dt: float,
+) -> None:
+    """``jump-metrics ... | evaluate --truth``: per-jump figure errors against the simulated truth."""
+    cmp = compare_jumps(est, truth_meta, max_event_dt)
+    if fmt == "text":
+        title = f"jumps (jump-metrics) vs truth ({truth_path}); errors = estimate - truth"
+        sfio.write_bytes(format_jumps(cmp, title).encode(), output)
+        return
+    meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
+    for key in ("frame", "hill"):
+        if key in est_meta:
+            meta[key] = est_meta[key]
+    meta["evaluation"] = jumps_meta(cmp)
+    meta["provenance"] = list(est_meta.get("provenance", []))
+    tool.output = output
+    tool.write(jumps_table(cmp), meta)
 
 
 def _jump_lengths(tool: Tool, video_path: str, reading_accuracy: float, fmt: str, output: str | None) -> None:

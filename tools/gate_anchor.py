@@ -12,6 +12,7 @@ from sportfusion.tools._cli import Tool, tool
 
 @tool(
     "gate-anchor",
+    cites=("gates",),
     example="""
   simulate gates --seed 1 --gates survey.parquet --truth truth.parquet \\
     | detect-events --kind gates | gate-anchor --gates survey.parquet > run.parquet

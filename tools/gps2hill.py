@@ -9,12 +9,14 @@ import pyarrow.compute as pc
 
 from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, auto_origin, gnss_to_frame, track_heights
 from sportfusion.core.schema import require_columns
+from sportfusion.skijump.hillfile import hill_from_meta
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
 
 
 @tool(
     "gps2hill",
+    cites=("skijump",),
     example="""
   ingest run.zip track.nmea | gps2hill --hill oberstdorf_hs106 > session.parquet
   gps2hill session.parquet --hill my_hill.toml --hill-set height=951.2 -o hill.parquet
@@ -67,7 +69,9 @@ def main(
     [m]; rows without a fix stay null.  Sigmas carry over as std_gnss_x/y/z
     [m] (north/east sigmas rotated by the azimuth; gnss_sigma_h per axis;
     gnss_sigma_v to z).  vel_n vel_e vel_d stay NED, untouched.  The frame
-    (and the hill with --hill) is written into the metadata.
+    (and the hill with --hill) is written into the metadata.  Without --hill
+    and --origin the hill named in the session's metadata is used; a session
+    that names none is refused.
 
     Heights: h (ellipsoidal) where the table has it; rows with only h_msl
     (height above mean sea level) use h_msl + --geoid-offset, else the
@@ -82,8 +86,13 @@ def main(
             f"{geoid_offset} m is not a geoid separation (-150..150 m)", param_hint="--geoid-offset"
         )
     the_hill = load_hill_option(hill, hill_set)
+    if the_hill is None and origin is None and (meta.get("hill") or {}).get("spec"):
+        the_hill = hill_from_meta(meta)  # the session already names its hill (simulate, an earlier gps2hill)
+        tool.info(f"--hill {the_hill.spec}: the session's hill")
     if the_hill is None and origin is None:
-        raise click.UsageError("give --hill NAME|FILE.toml or --origin LAT,LON,H|auto (with --azimuth DEG)")
+        raise click.UsageError(
+            "give --hill NAME|FILE.toml or --origin LAT,LON,H|auto (with --azimuth DEG); the session names no hill"
+        )
     az = azimuth if azimuth is not None else (the_hill.site.get("azimuth_deg", 0.0) if the_hill else 0.0)
     name = "hill" if the_hill else "local"
     if origin is not None and origin.strip().lower() == "auto":

@@ -19,6 +19,7 @@ from sportfusion.tools._options import parse_pairs
 
 @tool(
     "ingest",
+    cites=("climbing",),
     reads_table=False,
     example="""
   ingest phyphox_export.zip > session.parquet
@@ -90,9 +91,8 @@ from sportfusion.tools._options import parse_pairs
 @click.option(
     "--hand",
     type=click.Choice(["lefthand", "righthand"]),
-    default="lefthand",
-    show_default=True,
-    help="Bouldering dataset trial: which hand's IMU file.",
+    default=None,
+    help="Bouldering dataset trial: which hand's IMU file; default: the trial's only one (required when it has both).",
 )
 @click.option(
     "--hold-map",
@@ -125,7 +125,7 @@ def main(
     time_unit: str,
     rate: float | None,
     units: tuple[str, ...],
-    hand: str,
+    hand: str | None,
     hold_map: str | None,
     map_up: str,
     holds_out: str | None,

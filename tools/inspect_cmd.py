@@ -8,7 +8,7 @@ import sys
 import click
 import pyarrow.csv as pacsv
 
-from sportfusion.core.describe import render
+from sportfusion.core.describe import describe_json, render
 from sportfusion.tools._cli import Tool, tool
 
 
@@ -27,16 +27,23 @@ from sportfusion.tools._cli import Tool, tool
 @click.option(
     "--csv", "as_csv", is_flag=True, help="Write the whole table as CSV to stdout (units: see the plain view)."
 )
-@click.option("--json", "as_json", is_flag=True, help="Write the metadata as JSON to stdout.")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="Write JSON to stdout: metadata, rows, columns (name, type, unit, nulls, meaning), sensor rates [Hz].",
+)
 def main(tool: Tool, rows: int, as_csv: bool, as_json: bool) -> None:
     """Print a table's columns (unit, type, nulls), per-sensor rates and time
     span, metadata (kind, frame, hill, events), provenance, and head/tail rows.
-    Reads any table kind; writes text, never Parquet."""
+    Reads any table kind; writes text, never Parquet.  Head/tail values: degrees
+    (lat, lon) with 8 decimals (~1 mm), metres and seconds with 3, others with
+    6 significant digits; --csv writes full precision."""
     if as_csv and as_json:
         raise click.UsageError("--csv and --json exclude each other")
     table, meta = tool.read(kind=None)
     if as_json:
-        sys.stdout.write(json.dumps(meta, indent=2) + "\n")
+        sys.stdout.write(json.dumps(describe_json(table, meta), indent=2) + "\n")
     elif as_csv:
         pacsv.write_csv(table, sys.stdout.buffer)
     else:

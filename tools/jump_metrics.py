@@ -11,6 +11,7 @@ from sportfusion.tools._options import hill_options, load_hill_option
 
 @tool(
     "jump-metrics",
+    cites=("skijump",),
     example="""
   rts-smooth jump.parquet --hill oberstdorf_hs106 | jump-metrics > jumps.parquet
   jump-metrics smooth.parquet --hill my_hill.toml -o jumps.parquet && inspect jumps.parquet""",

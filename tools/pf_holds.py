@@ -15,6 +15,7 @@ from sportfusion.tools._cli import Tool, tool
 
 @tool(
     "pf-holds",
+    cites=("climbing",),
     example="""
   simulate boulder --seed 1 --holds holds.parquet --truth truth.parquet \\
     | detect-events --kind grips | pf-holds --holds holds.parquet > est.parquet

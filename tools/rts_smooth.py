@@ -25,6 +25,7 @@ def _times(text: str | None, option: str) -> list[float] | None:
 
 @tool(
     "rts-smooth",
+    cites=("skijump",),
     example="""
   simulate skijump --seed 1 | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > smooth.parquet
   rts-smooth jump.parquet --hill my_hill.toml --takeoff 12.34 --touchdown 15.61 -o smooth.parquet
@@ -75,7 +76,9 @@ def main(
     take-off, landing slope from touch-down, ramped in).  Input: a session with
     gyr/acc/mag columns, GNSS as gnss_x/y/z (gps2hill) or lat/lon/h, and
     take-off/touch-down events (detect-events --kind jump, or --takeoff and
-    --touchdown).  Output: every input column plus x y z [m] and vx vy vz
+    --touchdown).  A session without events is refused unless
+    --no-hill-constraints is given: placed from speed alone the constraints
+    make the attitude several times worse than no answer.  Output: every input column plus x y z [m] and vx vy vz
     [m/s] in the hill frame, q0..q3, roll pitch yaw [rad], bias_/scale_
     columns, std_ columns, and the constraint residuals c_q c_v_ir c_h_ir c_v_la."""
     table, meta = tool.read()

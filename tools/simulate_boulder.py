@@ -13,6 +13,7 @@ from sportfusion.tools._options import seed_truth_options
 
 @tool(
     "simulate boulder",
+    cites=("climbing",),
     reads_table=False,
     example="""
   simulate boulder --seed 1 --truth truth.parquet --holds holds.parquet > trial.parquet

@@ -13,6 +13,7 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
 
 @tool(
     "simulate gates",
+    cites=("gates",),
     reads_table=False,
     example="""
   simulate gates --seed 1 --truth truth.parquet --gates survey.parquet > run.parquet

@@ -6,6 +6,7 @@ import click
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
+from sportfusion.core.describe import ms_to_kmh
 from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
@@ -15,6 +16,7 @@ DEFAULT_HILL = "oberstdorf_hs106"
 
 @tool(
     "simulate skijump",
+    cites=("skijump",),
     reads_table=False,
     example="""
   simulate skijump --seed 1 --truth truth.parquet > session.parquet
@@ -168,7 +170,7 @@ def main(
     sj = sim.truth_meta["skijump"]
     tool.info(
         f"{the_hill.name}: gate {sj['gate']:g}, take-off {sj['times']['takeoff']:.2f} s at "
-        f"{sj['figures']['takeoff_speed']:.1f} m/s, touch-down {sj['times']['touchdown']:.2f} s, "
+        f"{sj['figures']['takeoff_speed']:.1f} m/s ({ms_to_kmh(sj['figures']['takeoff_speed']):.1f} km/h), touch-down {sj['times']['touchdown']:.2f} s, "
         f"jump length {sim.truth_meta['jump_length']:.2f} m; {sim.session.num_rows} rows"
     )
     if video_path:

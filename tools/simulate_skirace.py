@@ -13,6 +13,7 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
 
 @tool(
     "simulate skirace",
+    cites=("skiracing-splines",),
     reads_table=False,
     example="""
   simulate skirace --seed 1 --truth truth.parquet > run.parquet

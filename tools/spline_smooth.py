@@ -32,6 +32,7 @@ def _segment(text: str) -> tuple[float, float, float]:
 
 @tool(
     "spline-smooth",
+    cites=("skiracing-splines",),
     example="""
   ingest rover.pos | gps2hill --origin 46.49,9.84,2200 --azimuth 160 | spline-smooth > smooth.parquet
   simulate skirace --seed 1 | spline-smooth --lambda 0.9 --no-trans 8 > smooth.parquet

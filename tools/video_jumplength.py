@@ -19,7 +19,7 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.skijump.video.markers import markers_path_for, read_markers
-from sportfusion.tools._cli import Group, Tool, tool
+from sportfusion.tools._cli import Group, Tool, papers_epilog, tool
 
 COLUMNS = (
     "video",
@@ -45,7 +45,8 @@ class _DefaultMeasure(Group):
 @click.group(
     name="video-jumplength",
     cls=_DefaultMeasure,
-    epilog="\b\nExample:\n  video-jumplength landing.mp4 --markers landing.markers.csv > jumps.parquet\n"
+    epilog=papers_epilog(("skijump",))
+    + "\b\nExample:\n  video-jumplength landing.mp4 --markers landing.markers.csv > jumps.parquet\n"
     "  video-jumplength calibrate landing.mp4 -o grid.png",
 )
 @click.version_option(
@@ -60,6 +61,7 @@ def main() -> None:
 
 @tool(
     "video-jumplength",
+    cites=("skijump",),
     reads_table=False,
     example="""
   video-jumplength landing.mp4 > jumps.parquet            (markers from landing.markers.csv)
@@ -134,6 +136,7 @@ def measure(tool: Tool, videos: tuple[str, ...], markers_path: str | None, debug
 
 @tool(
     "video-jumplength calibrate",
+    cites=("skijump",),
     reads_table=False,
     writes_table=False,
     example="""

@@ -23,6 +23,11 @@ SENSORS = {
 }
 
 
+def ms_to_kmh(v: float) -> float:
+    """A speed [m/s] in km/h, for human summaries that print both."""
+    return float(v) * 3.6
+
+
 def sensor_rates(table: pa.Table) -> list[dict[str, Any]]:
     """Per-sensor sample count, time span [s] and median rate [Hz].
 
@@ -69,12 +74,35 @@ def column_rows(table: pa.Table) -> list[tuple[str, str, str, int, str]]:
     return rows
 
 
-def _fmt(v: Any) -> str:
+#: Decimals printed for a column's values in the head/tail rows, by unit (None: 6 significant digits).
+#: Degrees of latitude/longitude need 8 (1e-8 deg ~ 1 mm; 6 significant digits would be ~10 m).
+DECIMALS = {"deg": 8, "m": 3, "s": 3}
+
+
+def _fmt(v: Any, decimals: int | None = None) -> str:
     if v is None:
         return "-"
     if isinstance(v, float):
+        if decimals is not None and np.isfinite(v) and abs(v) < 1e9:
+            return f"{v:.{decimals}f}"
         return f"{v:.6g}"
     return str(v)
+
+
+def describe_json(table: pa.Table, meta: dict[str, Any]) -> dict[str, Any]:
+    """What ``inspect --json`` prints: the metadata, every column with its unit, the sensors' rates.
+
+    Returns
+    -------
+    dict with keys ``metadata`` (the table's sportfusion metadata), ``rows``, ``columns`` (a list of
+    ``{"name", "type", "unit", "nulls", "meaning"}``; unit ``""`` for text and flags) and ``sensors``
+    (see :func:`sensor_rates`: samples, time span [s], median rate [Hz]).
+    """
+    cols = [
+        {"name": n, "type": typ, "unit": unit, "nulls": nulls, "meaning": meaning}
+        for n, typ, unit, nulls, meaning in column_rows(table)
+    ]
+    return {"metadata": meta, "rows": table.num_rows, "columns": cols, "sensors": sensor_rates(table)}
 
 
 def render(table: pa.Table, meta: dict[str, Any], rows: int = 5) -> str:
@@ -125,7 +153,8 @@ def render(table: pa.Table, meta: dict[str, Any], rows: int = 5) -> str:
 
 def _rows_block(title: str, part: pa.Table) -> list[str]:
     names = part.column_names
-    data = [[_fmt(v) for v in part.column(n).to_pylist()] for n in names]
+    units = {name: unit for name, _, unit, _, _ in column_rows(part)}
+    data = [[_fmt(v, DECIMALS.get(units.get(n, ""))) for v in part.column(n).to_pylist()] for n in names]
     widths = [max([len(n)] + [len(x) for x in col]) for n, col in zip(names, data, strict=True)]
     out = [f"{title}:", "  " + " ".join(n.rjust(w) for n, w in zip(names, widths, strict=True))]
     for i in range(part.num_rows):

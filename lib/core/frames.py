@@ -1,11 +1,11 @@
 """Geodesy: WGS84 <-> local NED <-> a local (hill) frame rotated by an azimuth.
 
-Frames (DESIGN.md, "Frames and conventions"; ski-jumping paper §3.3.1)
+Frames (``docs/frames.md``; ski-jumping paper §3.3.1)
 --------------------------------------------------------------------
 * NED: origin at a geodetic point ``(lat0, lon0, h0)``, axes north, east, down
   [m], exact through pyproj's ``cart`` + ``topocentric`` pipeline (ellipsoidal
   heights, WGS84).  Input order of that pipeline is lon, lat, h; it returns
-  E, N, U; NED = (N, E, -U) (``shared/ref/formats.md``).
+  E, N, U; NED = (N, E, -U).
 * local / hill frame: the NED frame turned about the down axis by the azimuth
   ``psi`` (clockwise from north to the frame's x axis): x forward, y right,
   z down.  The ski-jumping hill frame is this frame with the origin at the
@@ -24,7 +24,7 @@ eq 28 (9 mm at 300 m).  Over a ski jump (a few hundred metres) that is below
 GNSS noise; the exact pipeline (agreeing with pymap3d to ~1e-8 m) is the default.
 
 Gravity: :func:`normal_gravity` (WGS84 Somigliana with the free-air
-correction, ``shared/ref/formats.md``) from :mod:`sportfusion.core.gravity`.
+correction, ``docs/frames.md``) from :mod:`sportfusion.core.gravity`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """WGS84 normal gravity (Somigliana) with the free-air height correction.
 
-Formula and check values: ``shared/ref/formats.md`` ("Reference models").
+Formula and check values: ``docs/frames.md`` ("Gravity and the magnetic field").
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Quaternions, direction-cosine matrices and Euler angles (vectorised).
 
-Conventions (DESIGN.md, "Frames and conventions")
+Conventions (``docs/frames.md``)
 -------------------------------------------------
 * Quaternions are scalar first, ``q = [q0, q1, q2, q3]``, Hamilton product.
 * The attitude quaternion ``q_BO`` maps local-level (NED) vectors into the

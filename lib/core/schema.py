@@ -148,6 +148,7 @@ for _a in "xyz":  # DESIGN names vx vy vz / ax ay az (the _xyz helper above regi
     )
 # ski-jump truth/evaluation (simulate skijump, evaluate)
 register("jump_length", F64, "m", "jump length along the landing profile from the knoll base F")
+register("takeoff_speed_error", F64, "m/s", "take-off speed error, estimate minus truth")
 register("phase", STR, "", "motion phase (inrun, flight, outrun, all) or a jump label in a summary")
 register("stat", STR, "", "statistic of a summary row (rms, mean, max, error)")
 register("samples", I64, "1", "number of samples behind a summary row")
@@ -316,7 +317,7 @@ register(
 for _n in ("x", "y", "z", "vx", "vy", "vz", "q0", "q1", "q2", "q3", "roll", "pitch", "yaw"):
     register(f"filt_{_n}", F64, COLUMNS[_n].unit, f"forward-only (EKF) estimate: {COLUMNS[_n].meaning}")
 # jump-metrics (jumps table, one row per jump)
-register("jump", I32, "1", "jump number in the session (0-based)")
+register("jump", I32, "1", "jump number in the session, from 1")
 register("t_takeoff", F64, "s", "take-off time on the session clock")
 register("t_touchdown", F64, "s", "touch-down time on the session clock")
 register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")

@@ -2,7 +2,9 @@
 
 * :mod:`~sportfusion.evaluate.truth` -- errors against a simulated truth by phase, in the layout of the
   skijump paper's Table 6 (position [m], velocity [m/s], attitude [deg]), event timing [s];
-* :mod:`~sportfusion.evaluate.jump_length` -- jump lengths against the video reference (Table 7) [m].
+* :mod:`~sportfusion.evaluate.jump_length` -- jump lengths against the video reference (Table 7) [m];
+* :mod:`~sportfusion.evaluate.jumps` -- a jumps table (jump-metrics) against the truth: length, take-off
+  speed, timing errors.
 """
 
 from sportfusion.evaluate.jump_length import (
@@ -13,6 +15,7 @@ from sportfusion.evaluate.jump_length import (
     jump_length_meta,
     jump_length_table,
 )
+from sportfusion.evaluate.jumps import JumpFigures, compare_jumps, format_jumps, jumps_meta, jumps_table
 from sportfusion.evaluate.truth import (
     ANGLES,
     EVENT_NAMES,
@@ -43,16 +46,21 @@ __all__ = [
     "PHASES",
     "STATS",
     "Evaluation",
+    "JumpFigures",
     "JumpLengthComparison",
     "check_estimate",
     "compare_jump_lengths",
+    "compare_jumps",
     "errors",
     "evaluate",
     "event_errors",
     "format_jump_lengths",
+    "format_jumps",
     "format_text",
     "jump_length_meta",
     "jump_length_table",
+    "jumps_meta",
+    "jumps_table",
     "match_rows",
     "phases",
     "summary_meta",

@@ -1,7 +1,7 @@
 """Relative anchor points and anchor-point matching (gates paper, "Body model and relative anchor point
 estimation" and "Anchor point matching").
 
-Equations 2-11 of the paper are images missing from its text (``ref/papers-errata.md``); everything below is
+Equations 2-11 of the paper are images missing from its text; everything below is
 implemented from the prose around them, and each function says which equation it stands for.
 
 Relative anchor points (eqs 2-6)

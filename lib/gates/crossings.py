@@ -20,7 +20,7 @@
   recovers most of what the 125 Hz sampling misses.
 * The distance to the magnet comes from the cube law calibrated for the magnet
   (:class:`MagnetCalibration`; eq 1 of the paper is garbled and replaced by the
-  physical model, see ``ref/papers-errata.md``).
+  physical model).
 * Turn side: "a turn was labelled as right turn if the sacrum's angular
   velocity along the trunk's longitudinal axis was negative at gate crossing".
   The sensor axes are x forward, y right, z down when standing, so the trunk's

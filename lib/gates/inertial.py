@@ -13,7 +13,7 @@ correction uses what that sensor alone offers:
   static finish posture) is removed by a rotation growing linearly over the run.
 
 The residual orientation drift is left to the three Euler-angle states of the EKS.  When the session has
-the attitude columns ``q0..q3`` (q_BO in NED, DESIGN.md) they are used instead (yaw relative to north;
+the attitude columns ``q0..q3`` (q_BO in NED, docs/frames.md) they are used instead (yaw relative to north;
 the frame is then the session's local frame).
 """
 

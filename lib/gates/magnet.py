@@ -1,7 +1,7 @@
 """The buried gate magnet: dipole field and the distance-from-intensity model.
 
 The paper's eq 1 (a piecewise fit of ``||r||`` against ``||B||``) is garbled in
-the text (see ``ref/papers-errata.md``).  It is replaced by the physical model
+the text.  It is replaced by the physical model
 the paper itself names (Furlani 2001): the magnet's contribution decays with
 the cube of the distance, so with the field normalised to 1 far from the magnet
 (``b = ||B|| / ||B_earth||``)::

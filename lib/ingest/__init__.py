@@ -54,7 +54,8 @@ class Options:
     units : dict
         Generic CSV: table column -> unit of the CSV values (``g``, ``deg/s``, ``mG``, ``nT``, ...).
     hand : str
-        Bouldering dataset: which hand's IMU file to read (``lefthand``/``righthand``).
+        Bouldering dataset: which hand's IMU file to read (``lefthand``/``righthand``); default: the
+        trial's only one (a trial with both needs it).
     date : str or None
         NMEA: UTC date ``YYYY-MM-DD`` of a log without RMC/ZDA dates (GGA only).
     hold_map : str or None
@@ -71,7 +72,7 @@ class Options:
     column_map: dict[str, str] = field(default_factory=dict)
     time_unit: str = "s"
     units: dict[str, str] = field(default_factory=dict)
-    hand: str = "lefthand"
+    hand: str | None = None
     date: str | None = None
     hold_map: str | None = None
     map_up: str = "z"

@@ -1,6 +1,6 @@
 """One hand of a trial of the bouldering dataset layout (Koller, Laue, Frese), and its hold map.
 
-Layout (``shared/ref/formats.md``)::
+Layout (``docs/formats.md``)::
 
     <dataset>/data_set.json                       magnet_in_art_V01, _V02: field vector, mocap frame
     <dataset>/P01/V01/trials/T1/trial_data.json   TrackID, start_time, end_time, descent_time,
@@ -114,6 +114,14 @@ def read(path: Path, opts: Options) -> Recording:
         if m:
             hand = m.group(1)
         trial = path.parent
+    if not hand:  # no --hand: the trial's only hand, else ask (a trial usually has both)
+        hands = sorted(m.group(1) for p in trial.glob("imu_*.csv") if (m := _IMU.match(p.name)))
+        if len(hands) != 1:
+            raise InputError(
+                f"{trial}: {' and '.join(f'imu_{h}.csv' for h in hands) or 'no imu_<hand>.csv'}; "
+                "choose the hand with --hand lefthand or --hand righthand"
+            )
+        hand = hands[0]
     imu = trial / f"imu_{hand}.csv"
     if not imu.is_file():
         have = ", ".join(sorted(p.name for p in trial.glob("imu_*.csv"))) or "none"

@@ -18,7 +18,7 @@ Columns (units)
     ``Roll/Pitch/Yaw`` (or ``Euler_X/Y/Z``) [deg]: Xsens' q_GS / R_GS rotates
     sensor-frame vectors into the global frame G that the header's
     ``Coordinate system`` names (ENU, the default, NWU or NED; Euler angles
-    are z-y-x in G).  It is converted to the suite's convention (DESIGN.md,
+    are z-y-x in G).  It is converted to the suite's convention (docs/frames.md,
     :mod:`sportfusion.core.rotations`): ``q_BO`` maps NED into the sensor
     (body) frame, scalar first, so ``M_BO = (C_NG R_GS)^T``.  Exports with
     IMU columns keep it as the device's own orientation ``dev_q0..3``;

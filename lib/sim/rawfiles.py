@@ -3,7 +3,7 @@
 These writers let the whole pipeline be exercised from raw recordings:
 a phyphox CSV export (ZIP) for the phone's IMU and magnetometer, and an
 NMEA 0183 log for a GPS logger.  They follow the formats described in
-``shared/ref/formats.md`` (phyphox comma dialect, quoted headers, numbers
+``docs/formats.md`` (phyphox comma dialect, quoted headers, numbers
 like ``9.810000000E0``; GGA/RMC/GST sentences with checksums).
 """
 

@@ -1,6 +1,6 @@
 """Longitudinal profile of a ski-jumping hill from its certificate parameters.
 
-Geometry: ``shared/ref/hill-profile.md`` (the FIS construction as used by open
+Geometry: ``docs/hills.md`` (the FIS construction as used by open
 implementations; the norm's own text was not available).  Three generations
 are supported:
 
@@ -34,7 +34,7 @@ Jump length
 -----------
 The jump length of a touch-down at ``x_TD`` is the curve length of the
 landing profile from the knoll base F (``x = 0``) to ``x_TD``
-(hill-profile.md, "Jump length").
+(``docs/hills.md``, "Jump length").
 """
 
 from __future__ import annotations

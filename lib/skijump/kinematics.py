@@ -12,8 +12,8 @@ w.r.t. NED [rad/s] and specific force [m/s^2], both in the body frame::
 
 with ``M_BO`` of eq 47, ``M_NO`` of eq 31 (hill azimuth ``psi_N``) and
 ``g_O = [0, 0, g0]``.  The printed eq 45 has ``+ omega_B x v_B``; the transport
-theorem (inertial derivative ``v_B' + omega x v_B``) gives the minus sign, see
-``shared/ref/papers-errata.md``.  The Earth's rotation is neglected, as in the
+theorem (inertial derivative ``v_B' + omega x v_B``) gives the minus sign
+(integrated as printed, a jump drifts by hundreds of metres).  The Earth's rotation is neglected, as in the
 paper.
 
 ``M_BO`` is evaluated exactly as printed (no normalisation of ``q``), so a

@@ -23,6 +23,7 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.core import schema
+from sportfusion.core.describe import ms_to_kmh
 from sportfusion.core.errors import InputError
 from sportfusion.skijump.hillfile import Hill
 
@@ -86,7 +87,7 @@ def jump_metrics(
     for k, (a, b) in enumerate(jumps):
         if not (t[0] <= a < b <= t[-1]):
             raise InputError(
-                f"jump {k}: take-off {a:.3f} s / touch-down {b:.3f} s outside the estimate "
+                f"jump {k + 1}: take-off {a:.3f} s / touch-down {b:.3f} s outside the estimate "
                 f"({t[0]:.3f}-{t[-1]:.3f} s); expected events within the smoothed session"
             )
         v_to = np.array([np.interp(a, t, vel[:, j]) for j in range(3)])
@@ -96,7 +97,7 @@ def jump_metrics(
         xp = profile_foot(hill, r_td[0], r_td[2])
         out.append(
             {
-                "jump": k,
+                "jump": k + 1,  # numbered from 1, as evaluate and the batch summary print them
                 "t_takeoff": a,
                 "t_touchdown": b,
                 "takeoff_speed": float(np.linalg.norm(v_to)),
@@ -130,5 +131,9 @@ def jump_metrics_table(table: pa.Table, meta: dict[str, Any], hill: Hill) -> tup
     new_meta["kind"] = "jumps"
     new_meta["hill"] = hill.meta()
     new_meta["jump_length"] = [r["jump_length"] for r in rows]
-    msg = "; ".join(f"jump {r['jump']}: {r['jump_length']:.1f} m, {r['takeoff_speed']:.1f} m/s" for r in rows)
+    msg = "; ".join(
+        f"jump {r['jump']}: {r['jump_length']:.1f} m, {r['takeoff_speed']:.1f} m/s "
+        f"({ms_to_kmh(r['takeoff_speed']):.1f} km/h)"
+        for r in rows
+    )
     return out, new_meta, msg
