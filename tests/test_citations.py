@@ -12,8 +12,8 @@ from conftest import ROOT, console_scripts
 
 from sportfusion.data.papers import PAPERS
 
-#: plot's help is the plots helper's to change (issue 16 item 5); inspect cites nothing.
-SKIP = {"plot", "inspect"}
+#: inspect cites nothing.
+SKIP = {"inspect"}
 SHORTHAND = {
     "skijump": re.compile(r"ski-?jump(ing)? paper|skijump (§|App|eq|Table)", re.I),
     "skiracing-splines": re.compile(r"skiracing-splines|ski racing splines paper|racing splines paper", re.I),

@@ -66,6 +66,7 @@ def track_cmd(
 @tool(
     "plot compare",
     writes_table=False,
+    cites=("skiracing-splines",),
     example="""
   compare-runs anna.parquet --run berta.parquet | plot compare -o compare.png
   compare-runs anna.parquet --run berta.parquet --profile speed.parquet -o compare.parquet

@@ -130,6 +130,7 @@ def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | Non
 @tool(
     "plot gates",
     writes_table=False,
+    cites=("gates",),
     example="""
   gate-anchor run.parquet --gates survey.parquet | plot gates --gates survey.parquet -o course.png""",
 )
@@ -156,6 +157,7 @@ def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: 
 @tool(
     "plot holds",
     writes_table=False,
+    cites=("climbing",),
     example="""
   pf-holds trial.parquet --holds wall.parquet | plot holds --holds wall.parquet -o path.png""",
 )
