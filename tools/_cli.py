@@ -24,6 +24,7 @@ from sportfusion import __version__
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
+from sportfusion.tools._options import check_float_options, check_option_values
 
 T = TypeVar("T")
 
@@ -163,6 +164,7 @@ def tool(
                 raise click.UsageError("standard input is a terminal; pipe a Parquet table in or give INPUT")
             if writes_table and output in (None, "-") and _is_tty(sys.stdout):
                 raise click.UsageError("standard output is a terminal; redirect it or give -o FILE")
+            check_option_values(click.get_current_context().command, kwargs)
             t = Tool(name, source, output, verbose, quiet)
             t.params = {k: v for k, v in kwargs.items()}
             try:
@@ -189,6 +191,7 @@ def tool(
 
         doc = (func.__doc__ or "").strip()
         cmd = click.command(name=name, cls=Command, help=doc, epilog="\b\nExample:\n" + example.strip("\n"))(body)
+        check_float_options(cmd)
         cmd = click.version_option(
             __version__, "--version", prog_name=name, message="%(prog)s (sportfusion) %(version)s"
         )(cmd)
