@@ -14,19 +14,26 @@ import functools
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, TypeVar
 
 import click
+import numpy as np
 import pyarrow as pa
 
 from sportfusion import __version__
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
+from sportfusion.core.session import nonfinite_to_null
 from sportfusion.tools._options import check_float_options, check_option_values
 
 T = TypeVar("T")
+
+# OpenCV and its FFmpeg back end log to stderr from C++; a command reports problems in one line itself.
+os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
 
 class Tool:
@@ -39,14 +46,25 @@ class Tool:
         self.verbose = verbose
         self.quiet = quiet
         self.params: dict[str, Any] = {}
+        self.input: pa.Table | None = None
 
     # -- input/output -------------------------------------------------
     def read(self, kind: str | tuple[str, ...] | None = "session") -> tuple[pa.Table, dict[str, Any]]:
         """Read the primary input table (stdin unless INPUT was given) and its metadata."""
-        return sfio.read_table(self.source, kind=kind)
+        table, meta = sfio.read_table(self.source, kind=kind)
+        if self.input is None:
+            self.input = table
+        return table, meta
 
     def write(self, table: pa.Table, meta: dict[str, Any], params: dict[str, Any] | None = None) -> None:
-        """Append this tool's provenance step and write the table (built whole, then written)."""
+        """Append this tool's provenance step and write the table (built whole, then written).
+
+        NaN/inf in a column this tool made (an estimate) is written as null, counted on stderr.
+        """
+        table, counts = nonfinite_to_null(table, _unchanged(self.input, table))
+        if counts:
+            worst = max(counts.values())
+            self.info(f"{worst} row(s) have no finite estimate in {', '.join(sorted(counts))}: written as null")
         step = dict(self.params if params is None else params)
         data = sfio.table_to_bytes(table, sfmeta.add_provenance(meta, self.name, step))
         sfio.write_bytes(data, self.output)
@@ -68,6 +86,44 @@ class Tool:
             return
         with click.progressbar(iterable, length=length, label=label or self.name, file=sys.stderr) as bar:
             yield from bar
+
+
+def _unchanged(source: pa.Table | None, table: pa.Table) -> set[str]:
+    """Float columns of ``table`` passed through unchanged from ``source`` (NaN equal to NaN)."""
+    if source is None or source.num_rows != table.num_rows:
+        return set()
+    keep = set()
+    for name in set(source.column_names) & set(table.column_names):
+        a, b = source.column(name), table.column(name)
+        if a.type != b.type or not pa.types.is_floating(a.type):
+            continue
+        if np.array_equal(a.to_numpy(zero_copy_only=False), b.to_numpy(zero_copy_only=False), equal_nan=True):
+            keep.add(name)
+    return keep
+
+
+def one_line(message: str, limit: int = 400) -> str:
+    """The first non-empty line of ``message`` (a pyarrow schema dump or a warning list is cut off)."""
+    lines = [ln.strip() for ln in message.splitlines() if ln.strip()]
+    text = lines[0] if lines else message.strip()
+    if len(lines) > 1 and text.endswith(":"):  # "...: schema:\n a: double" -> keep the headline only
+        text = text[:-1]
+    if len(text) > limit:
+        text = text[: limit - 3] + "..."
+    return text
+
+
+#: Warning categories that only concern developers (never shown to the user).
+_SILENT = (DeprecationWarning, PendingDeprecationWarning, FutureWarning, ImportWarning, ResourceWarning)
+
+
+def _report_warnings(tool: Tool, caught: list[warnings.WarningMessage]) -> None:
+    """Translate the numerical warnings raised under a command into one line; drop the rest."""
+    numeric = [w for w in caught if not issubclass(w.category, _SILENT)]
+    if numeric:
+        first = one_line(str(numeric[0].message), 160)
+        more = f" (and {len(numeric) - 1} more)" if len(numeric) > 1 else ""
+        tool.info(f"numerical warning from the computation: {first}{more}; results were checked for NaN/inf")
 
 
 def _is_tty(stream: Any) -> bool:
@@ -164,13 +220,21 @@ def tool(
                 raise click.UsageError("standard input is a terminal; pipe a Parquet table in or give INPUT")
             if writes_table and output in (None, "-") and _is_tty(sys.stdout):
                 raise click.UsageError("standard output is a terminal; redirect it or give -o FILE")
+            if output not in (None, "-"):
+                folder = os.path.dirname(output) or "."
+                if not os.path.isdir(folder):
+                    raise click.BadParameter(f"the folder {folder} does not exist", param_hint="-o/--output")
             check_option_values(click.get_current_context().command, kwargs)
             t = Tool(name, source, output, verbose, quiet)
             t.params = {k: v for k, v in kwargs.items()}
             try:
-                func(t, **kwargs)
+                # NaN/inf results are nulled and counted at write time; numpy's own warnings are noise
+                with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+                    warnings.simplefilter("always")
+                    func(t, **kwargs)
+                _report_warnings(t, caught)
             except InputError as exc:
-                click.echo(f"Error: {name}: {exc}", err=True)
+                click.echo(f"Error: {name}: {one_line(str(exc))}", err=True)
                 if verbose:
                     traceback.print_exc()
                 sys.exit(1)
@@ -181,7 +245,7 @@ def tool(
                 raise
             except Exception as exc:  # an unexpected exception is a bug: say so, one line
                 click.echo(
-                    f"Error: {name}: internal error {type(exc).__name__}: {exc} "
+                    f"Error: {name}: internal error {type(exc).__name__}: {one_line(str(exc))} "
                     "(this is a bug; run with -v for the traceback)",
                     err=True,
                 )

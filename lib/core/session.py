@@ -159,3 +159,53 @@ def with_columns(table: pa.Table, columns: Mapping[str, object]) -> pa.Table:
         else:
             table = table.append_column(name, arr)
     return table
+
+
+#: Measured (raw sensor) columns: a reader may keep what the file said there, so they are never
+#: rewritten by :func:`nonfinite_to_null`; everything else a tool writes is an estimate or derived.
+RAW_PREFIXES = ("acc_", "gyr_", "mag_", "vel_", "dev_q", "true_", "gnss_sigma", "gnss_sd")
+RAW_NAMES = frozenset({"t", "lat", "lon", "h", "h_msl", "pressure", "gnss_hdop", "gnss_speed", "gnss_course"})
+
+
+def is_raw(name: str) -> bool:
+    """Whether ``name`` is a measured sensor column (see :data:`RAW_PREFIXES`)."""
+    return (
+        name in RAW_NAMES
+        or name.startswith(RAW_PREFIXES)
+        or name.startswith("gnss_")
+        and name[5:]
+        in (
+            "age",
+            "ratio",
+        )
+    )
+
+
+def nonfinite_to_null(
+    table: pa.Table, keep: set[str] | frozenset[str] = frozenset()
+) -> tuple[pa.Table, dict[str, int]]:
+    """Replace NaN and +-inf by null in the floating-point estimate columns of ``table``.
+
+    A command never writes NaN/inf into an estimate: where there is none the value is null.
+    Raw sensor columns (:func:`is_raw`) and the columns named in ``keep`` (passed through
+    unchanged from the input) are left as they are.
+
+    Returns
+    -------
+    table : pyarrow.Table
+    counts : dict
+        Column name -> number of values made null (only columns that had some).
+    """
+    import pyarrow.compute as pc
+
+    counts: dict[str, int] = {}
+    for i, name in enumerate(table.column_names):
+        col = table.column(i)
+        if name in keep or is_raw(name) or not pa.types.is_floating(col.type):
+            continue
+        bad = pc.invert(pc.is_finite(col))  # null stays null; NaN and inf are True
+        n = pc.sum(bad).as_py() or 0
+        if n:
+            counts[name] = int(n)
+            table = table.set_column(i, table.field(i), pc.if_else(bad, pa.scalar(None, col.type), col))
+    return table, counts
