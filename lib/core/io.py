@@ -91,7 +91,32 @@ def read_table(
         from sportfusion.core.session import validate_time
 
         validate_time(table)
+    if meta["kind"] in SURVEYED:
+        check_positions(table, name)
     return table, meta
+
+
+#: Table kinds that are surveys of fixed points (a hold map, a gate survey): every position must be finite.
+SURVEYED = ("holds", "gates")
+_RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "h": (-1000.0, 10000.0)}
+
+
+def check_positions(table: pa.Table, name: str) -> None:
+    """Refuse a survey whose position columns (x y z, lat lon h) hold null, NaN, inf or impossible values."""
+    import numpy as np
+
+    for col in ("x", "y", "z", "lat", "lon", "h"):
+        if col not in table.column_names:
+            continue
+        v = schema.floats(table, col)
+        lo, hi = _RANGES.get(col, (-1e6, 1e6))
+        bad = np.flatnonzero(~(np.isfinite(v) & (v >= lo) & (v <= hi)))
+        if bad.size:
+            rows = ", ".join(str(i) for i in bad[:5]) + (", ..." if bad.size > 5 else "")
+            raise InputError(
+                f"{name}: column {col} holds {bad.size} missing, non-finite or out-of-range value(s) "
+                f"(rows {rows}); expected every surveyed position finite in {lo:g}..{hi:g}"
+            )
 
 
 def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
