@@ -26,7 +26,7 @@ from sportfusion import __version__
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
-from sportfusion.core.session import nonfinite_to_null
+from sportfusion.core.session import drop_impossible, nonfinite_to_null
 from sportfusion.tools._options import check_float_options, check_option_values
 
 T = TypeVar("T")
@@ -47,11 +47,19 @@ class Tool:
         self.quiet = quiet
         self.params: dict[str, Any] = {}
         self.input: pa.Table | None = None
+        self.deferred: list[str] = []
 
     # -- input/output -------------------------------------------------
     def read(self, kind: str | tuple[str, ...] | None = "session") -> tuple[pa.Table, dict[str, Any]]:
         """Read the primary input table (stdin unless INPUT was given) and its metadata."""
         table, meta = sfio.read_table(self.source, kind=kind)
+        if meta["kind"] in ("session", "truth"):
+            table, dropped = drop_impossible(table)
+            if dropped:  # said once the command succeeds (a failure says one line only)
+                self.deferred.append(
+                    f"{sum(dropped.values())} NaN/inf or physically impossible sensor value(s) in "
+                    f"{', '.join(sorted(dropped))} read as missing"
+                )
         if self.input is None:
             self.input = table
         return table, meta
@@ -233,6 +241,8 @@ def tool(
                     warnings.simplefilter("always")
                     func(t, **kwargs)
                 _report_warnings(t, caught)
+                for message in t.deferred:
+                    t.warn(message)
             except InputError as exc:
                 click.echo(f"Error: {name}: {one_line(str(exc))}", err=True)
                 if verbose:

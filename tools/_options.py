@@ -265,7 +265,7 @@ def check_option_values(cmd: click.Command, values: dict[str, Any]) -> None:
     """Check the numbers inside string options (``--origin LAT,LON,H``, ``--hill-set K=V``...) before any
     input is read, so a bad option value is always a usage error (exit 2)."""
     for p in cmd.params:
-        if not isinstance(p, click.Option) or values.get(p.name or "") in (None, (), ""):
+        if not isinstance(p, click.Option) or values.get(p.name or "") in (None, ()):
             continue
         longest = max(p.opts, key=len)
         value = values[p.name or ""]

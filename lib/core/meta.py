@@ -160,7 +160,9 @@ def decode(raw: bytes | None) -> dict[str, Any]:
 def encode(meta: dict[str, Any]) -> bytes:
     """Validate and encode metadata as compact UTF-8 JSON."""
     validate_meta(meta)
-    return json.dumps(meta, separators=(",", ":"), allow_nan=False, default=_jsonable).encode()
+    # NaN/inf are not JSON: a parameter that is "inf (off)" or a statistic without a value is null
+    clean = _finite(json.loads(json.dumps(meta, default=_jsonable, allow_nan=True)))
+    return json.dumps(clean, separators=(",", ":"), allow_nan=False).encode()
 
 
 def _jsonable(obj: Any) -> Any:

@@ -209,3 +209,44 @@ def nonfinite_to_null(
             counts[name] = int(n)
             table = table.set_column(i, table.field(i), pc.if_else(bad, pa.scalar(None, col.type), col))
     return table, counts
+
+
+#: Physically possible magnitudes of raw sensor values [column unit]; beyond them (or NaN/inf) a
+#: value is a corrupt sample, dropped to null when a table is read (the reader says how many).
+POSSIBLE: dict[str, float] = {
+    "acc_": 2000.0,  # m/s^2 (about 200 g; consumer IMUs clip at 16-32 g)
+    "gyr_": 200.0,  # rad/s (about 11,000 deg/s)
+    "mag_": 10000.0,  # uT (Earth ~25-65 uT; a magnet at the sensor a few mT)
+    "vel_": 1000.0,  # m/s
+    "gnss_sigma": 1e6,  # m
+    "gnss_sd": 1e6,  # m
+}
+_POSSIBLE_RANGE = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "h": (-1000.0, 100000.0), "h_msl": (-1000.0, 100000.0)}
+
+
+def drop_impossible(table: pa.Table) -> tuple[pa.Table, dict[str, int]]:
+    """Null the raw sensor values that are NaN, inf or physically impossible (see :data:`POSSIBLE`).
+
+    Returns the cleaned table and column name -> number of values dropped (columns with any).
+    """
+    import pyarrow.compute as pc
+
+    counts: dict[str, int] = {}
+    for i, name in enumerate(table.column_names):
+        col = table.column(i)
+        if not pa.types.is_floating(col.type):
+            continue
+        if name in _POSSIBLE_RANGE:
+            lo, hi = _POSSIBLE_RANGE[name]
+        else:
+            bound = next((v for k, v in POSSIBLE.items() if name.startswith(k)), None)
+            if bound is None:
+                continue
+            lo, hi = -bound, bound
+        ok = pc.and_(pc.is_finite(col), pc.and_(pc.greater_equal(col, lo), pc.less_equal(col, hi)))
+        bad = pc.invert(ok)
+        n = pc.sum(bad).as_py() or 0
+        if n:
+            counts[name] = int(n)
+            table = table.set_column(i, table.field(i), pc.if_else(bad, pa.scalar(None, col.type), col))
+    return table, counts
