@@ -248,6 +248,13 @@ def tool(
                 if verbose:
                     traceback.print_exc()
                 sys.exit(1)
+            except MemoryError as exc:
+                click.echo(
+                    f"Error: {name}: not enough memory for this input ({one_line(str(exc)) or 'MemoryError'}); "
+                    "expected a smaller input or more memory",
+                    err=True,
+                )
+                sys.exit(1)
             except BrokenPipeError:
                 _quiet_broken_pipe()
                 sys.exit(1)

@@ -159,7 +159,7 @@ def check_number(x: float, lo: float, hi: float, unit: str, option: str, text: s
     """``x`` if finite and in [lo, hi], else a usage error naming the range."""
     if not (math.isfinite(x) and lo <= x <= hi):
         raise click.BadParameter(
-            f"{text!r}: {x:g} is not a finite number in [{lo:g}, {hi:g}] {unit}", param_hint=option
+            f"{text!r}: {x:g} is not a finite number in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}", param_hint=option
         )
     return x
 
