@@ -381,3 +381,20 @@ def test_video_frame_budget_is_enforced(monkeypatch):
     monkeypatch.setenv("SPORTFUSION_MAX_VIDEO_BYTES", str(thumb_bytes(info.width, info.height) * 3))
     with pytest.raises(InputError, match="SPORTFUSION_MAX_VIDEO_BYTES"):
         read_thumbnails(FIX / "skijump" / "raw" / "landing.mp4")
+
+
+def test_ingest_never_writes_an_impossible_latitude(tmp_path):
+    gpx = tmp_path / "bad.gpx"
+    pts = [(91.5, 0), (47.0, 1), (47.00001, 2)]
+    body = "".join(
+        f'<trkpt lat="{la}" lon="10.0"><ele>900</ele><time>2024-01-01T10:00:0{s}Z</time></trkpt>' for la, s in pts
+    )
+    gpx.write_text(
+        '<?xml version="1.0"?><gpx version="1.1" creator="t" xmlns="http://www.topografix.com/GPX/1/1">'
+        f"<trk><trkseg>{body}</trkseg></trk></gpx>"
+    )
+    res = invoke(["ingest", str(gpx), "-q"])
+    assert res.exit_code == 0, res.stderr
+    lat = pq.read_table(io.BytesIO(res.stdout_bytes)).column("lat").to_pylist()
+    assert lat[0] is None and lat[1] == pytest.approx(47.0)
+    assert "1 NaN/inf or physically impossible sensor value(s) in lat" in res.stderr

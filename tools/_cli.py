@@ -69,6 +69,13 @@ class Tool:
 
         NaN/inf in a column this tool made (an estimate) is written as null, counted on stderr.
         """
+        if self.input is None and meta.get("kind") in ("session", "truth"):  # a reader (ingest): same rule
+            table, dropped = drop_impossible(table)
+            if dropped:
+                self.warn(
+                    f"{sum(dropped.values())} NaN/inf or physically impossible sensor value(s) in "
+                    f"{', '.join(sorted(dropped))} written as missing"
+                )
         table, counts = nonfinite_to_null(table, _unchanged(self.input, table))
         if counts:
             worst = max(counts.values())
