@@ -112,9 +112,27 @@ def _unchanged(source: pa.Table | None, table: pa.Table) -> set[str]:
         a, b = source.column(name), table.column(name)
         if a.type != b.type or not pa.types.is_floating(a.type):
             continue
-        if np.array_equal(a.to_numpy(zero_copy_only=False), b.to_numpy(zero_copy_only=False), equal_nan=True):
+        if _same_buffers(a, b) or np.array_equal(
+            a.to_numpy(zero_copy_only=False), b.to_numpy(zero_copy_only=False), equal_nan=True
+        ):
             keep.add(name)
     return keep
+
+
+def _same_buffers(a: pa.ChunkedArray, b: pa.ChunkedArray) -> bool:
+    """Whether two columns are the very same memory (a pass-through), without comparing values."""
+    if a.num_chunks != b.num_chunks:
+        return False
+    for x, y in zip(a.chunks, b.chunks, strict=True):
+        if x.offset != y.offset or len(x) != len(y):
+            return False
+        bx, by = x.buffers(), y.buffers()
+        if len(bx) != len(by) or any(
+            (p is None) != (q is None) or (p is not None and p.address != q.address)
+            for p, q in zip(bx, by, strict=True)
+        ):
+            return False
+    return True
 
 
 def one_line(message: str, limit: int = 400) -> str:
