@@ -255,7 +255,7 @@ def check_hill_set(overrides: dict[str, str]) -> None:
         if key in site:
             check_number(x, *site[key], "", "--hill-set", f"{raw_key}={raw_val}")
         elif key in PARAMETERS:
-            bound = 90.0 if PARAMETERS[key][0] == "deg" else 2000.0
+            bound = 90.0 if PARAMETERS[key][0] == "deg" else 1e5
             check_number(x, -bound, bound, PARAMETERS[key][0], "--hill-set", f"{raw_key}={raw_val}")
         elif key == "gates":
             check_number(x, 1, 1000, "", "--hill-set", f"{raw_key}={raw_val}")
