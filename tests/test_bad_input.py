@@ -149,7 +149,7 @@ def _with_value(path: Path, col: str, row: int, value: float, dest: Path) -> Pat
 @pytest.mark.parametrize("value", [np.nan, np.inf, 1e300])
 def test_survey_and_hold_map_with_non_finite_positions_are_refused(tmp_path, value):
     survey = _with_value(FIX / "gates" / "survey.parquet", "x", 3, value, tmp_path / "survey.parquet")
-    with pytest.raises(InputError, match=r"column x holds 1 .*rows 3"):
+    with pytest.raises(InputError, match=r"column x holds 1 NaN.*\(row 3\)"):
         sfio.read_table(survey, kind="gates")
     holds = _with_value(FIX / "climbing" / "holds.parquet", "z", 0, value, tmp_path / "holds.parquet")
     from sportfusion.climbing.holds import read_holds

@@ -143,8 +143,8 @@ def check_positions(table: pa.Table, name: str) -> None:
         if bad.size:
             rows = ", ".join(str(i) for i in bad[:5]) + (", ..." if bad.size > 5 else "")
             raise InputError(
-                f"{name}: column {col} holds {bad.size} missing, non-finite or out-of-range value(s) "
-                f"(rows {rows}); expected every surveyed position finite in {lo:g}..{hi:g}"
+                f"{name}: column {col} holds {bad.size} NaN, inf, missing or out-of-range value(s) "
+                f"(row{'s' if bad.size > 1 else ''} {rows}); expected every surveyed position finite in {lo:g}..{hi:g}"
             )
 
 
