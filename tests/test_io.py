@@ -36,7 +36,7 @@ def test_write_to_file_is_atomic(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr("os.replace", boom)
-    with pytest.raises(OSError):
+    with pytest.raises(InputError, match="disk full"):  # a clean one-line error, not an OSError
         sfio.write_table(_table(), sfmeta.new_meta(), dest)
     assert dest.read_bytes() == b"old"  # untouched
     assert [p.name for p in tmp_path.iterdir()] == ["out.parquet"]  # no temp file left

@@ -14,19 +14,27 @@ import functools
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, TypeVar
 
 import click
+import numpy as np
 import pyarrow as pa
 
 from sportfusion import __version__
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
+from sportfusion.core.session import drop_impossible, nonfinite_to_null
 from sportfusion.data.papers import citation
+from sportfusion.tools._options import check_float_options, check_option_values
 
 T = TypeVar("T")
+
+# OpenCV and its FFmpeg back end log to stderr from C++; a command reports problems in one line itself.
+os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
 
 class Tool:
@@ -39,14 +47,40 @@ class Tool:
         self.verbose = verbose
         self.quiet = quiet
         self.params: dict[str, Any] = {}
+        self.input: pa.Table | None = None
+        self.deferred: list[str] = []
 
     # -- input/output -------------------------------------------------
     def read(self, kind: str | tuple[str, ...] | None = "session") -> tuple[pa.Table, dict[str, Any]]:
         """Read the primary input table (stdin unless INPUT was given) and its metadata."""
-        return sfio.read_table(self.source, kind=kind)
+        table, meta = sfio.read_table(self.source, kind=kind)
+        if meta["kind"] in ("session", "truth"):
+            table, dropped = drop_impossible(table)
+            if dropped:  # said once the command succeeds (a failure says one line only)
+                self.deferred.append(
+                    f"{sum(dropped.values())} NaN/inf or physically impossible sensor value(s) in "
+                    f"{', '.join(sorted(dropped))} read as missing"
+                )
+        if self.input is None:
+            self.input = table
+        return table, meta
 
     def write(self, table: pa.Table, meta: dict[str, Any], params: dict[str, Any] | None = None) -> None:
-        """Append this tool's provenance step and write the table (built whole, then written)."""
+        """Append this tool's provenance step and write the table (built whole, then written).
+
+        NaN/inf in a column this tool made (an estimate) is written as null, counted on stderr.
+        """
+        if self.input is None and meta.get("kind") in ("session", "truth"):  # a reader (ingest): same rule
+            table, dropped = drop_impossible(table)
+            if dropped:
+                self.warn(
+                    f"{sum(dropped.values())} NaN/inf or physically impossible sensor value(s) in "
+                    f"{', '.join(sorted(dropped))} written as missing"
+                )
+        table, counts = nonfinite_to_null(table, _unchanged(self.input, table))
+        if counts:
+            worst = max(counts.values())
+            self.info(f"{worst} row(s) have no finite estimate in {', '.join(sorted(counts))}: written as null")
         step = dict(self.params if params is None else params)
         sfio.write_table(table, sfmeta.add_provenance(meta, self.name, step), self.output)  # one buffer, no copy
 
@@ -67,6 +101,62 @@ class Tool:
             return
         with click.progressbar(iterable, length=length, label=label or self.name, file=sys.stderr) as bar:
             yield from bar
+
+
+def _unchanged(source: pa.Table | None, table: pa.Table) -> set[str]:
+    """Float columns of ``table`` passed through unchanged from ``source`` (NaN equal to NaN)."""
+    if source is None or source.num_rows != table.num_rows:
+        return set()
+    keep = set()
+    for name in set(source.column_names) & set(table.column_names):
+        a, b = source.column(name), table.column(name)
+        if a.type != b.type or not pa.types.is_floating(a.type):
+            continue
+        if _same_buffers(a, b) or np.array_equal(
+            a.to_numpy(zero_copy_only=False), b.to_numpy(zero_copy_only=False), equal_nan=True
+        ):
+            keep.add(name)
+    return keep
+
+
+def _same_buffers(a: pa.ChunkedArray, b: pa.ChunkedArray) -> bool:
+    """Whether two columns are the very same memory (a pass-through), without comparing values."""
+    if a.num_chunks != b.num_chunks:
+        return False
+    for x, y in zip(a.chunks, b.chunks, strict=True):
+        if x.offset != y.offset or len(x) != len(y):
+            return False
+        bx, by = x.buffers(), y.buffers()
+        if len(bx) != len(by) or any(
+            (p is None) != (q is None) or (p is not None and p.address != q.address)
+            for p, q in zip(bx, by, strict=True)
+        ):
+            return False
+    return True
+
+
+def one_line(message: str, limit: int = 400) -> str:
+    """The first non-empty line of ``message`` (a pyarrow schema dump or a warning list is cut off)."""
+    lines = [ln.strip() for ln in message.splitlines() if ln.strip()]
+    text = lines[0] if lines else message.strip()
+    if len(lines) > 1 and text.endswith(":"):  # "...: schema:\n a: double" -> keep the headline only
+        text = text[:-1]
+    if len(text) > limit:
+        text = text[: limit - 3] + "..."
+    return text
+
+
+#: Warning categories that only concern developers (never shown to the user).
+_SILENT = (DeprecationWarning, PendingDeprecationWarning, FutureWarning, ImportWarning, ResourceWarning)
+
+
+def _report_warnings(tool: Tool, caught: list[warnings.WarningMessage]) -> None:
+    """Translate the numerical warnings raised under a command into one line; drop the rest."""
+    numeric = [w for w in caught if not issubclass(w.category, _SILENT)]
+    if numeric:
+        first = one_line(str(numeric[0].message), 160)
+        more = f" (and {len(numeric) - 1} more)" if len(numeric) > 1 else ""
+        tool.info(f"numerical warning from the computation: {first}{more}; results were checked for NaN/inf")
 
 
 def _is_tty(stream: Any) -> bool:
@@ -175,14 +265,32 @@ def tool(
                 raise click.UsageError("standard input is a terminal; pipe a Parquet table in or give INPUT")
             if writes_table and output in (None, "-") and _is_tty(sys.stdout):
                 raise click.UsageError("standard output is a terminal; redirect it or give -o FILE")
+            if output not in (None, "-"):
+                folder = os.path.dirname(output) or "."
+                if not os.path.isdir(folder):
+                    raise click.BadParameter(f"the folder {folder} does not exist", param_hint="-o/--output")
+            check_option_values(click.get_current_context().command, kwargs)
             t = Tool(name, source, output, verbose, quiet)
             t.params = {k: v for k, v in kwargs.items()}
             try:
-                func(t, **kwargs)
+                # NaN/inf results are nulled and counted at write time; numpy's own warnings are noise
+                with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+                    warnings.simplefilter("always")
+                    func(t, **kwargs)
+                _report_warnings(t, caught)
+                for message in t.deferred:
+                    t.warn(message)
             except InputError as exc:
-                click.echo(f"Error: {name}: {exc}", err=True)
+                click.echo(f"Error: {name}: {one_line(str(exc))}", err=True)
                 if verbose:
                     traceback.print_exc()
+                sys.exit(1)
+            except MemoryError as exc:
+                click.echo(
+                    f"Error: {name}: not enough memory for this input ({one_line(str(exc)) or 'MemoryError'}); "
+                    "expected a smaller input or more memory",
+                    err=True,
+                )
                 sys.exit(1)
             except BrokenPipeError:
                 _quiet_broken_pipe()
@@ -191,7 +299,7 @@ def tool(
                 raise
             except Exception as exc:  # an unexpected exception is a bug: say so, one line
                 click.echo(
-                    f"Error: {name}: internal error {type(exc).__name__}: {exc} "
+                    f"Error: {name}: internal error {type(exc).__name__}: {one_line(str(exc))} "
                     "(this is a bug; run with -v for the traceback)",
                     err=True,
                 )
@@ -202,6 +310,7 @@ def tool(
         doc = (func.__doc__ or "").strip()
         epilog = papers_epilog(cites) + "\b\nExample:\n" + example.strip("\n")
         cmd = click.command(name=name, cls=Command, help=doc, epilog=epilog)(body)
+        check_float_options(cmd)
         cmd = click.version_option(
             __version__, "--version", prog_name=name, message="%(prog)s (sportfusion) %(version)s"
         )(cmd)

@@ -14,7 +14,7 @@ from sportfusion.core.io import write_table
 from sportfusion.core.meta import add_provenance
 from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import parse_pairs
+from sportfusion.tools._options import check_number, parse_pairs
 
 
 @tool(
@@ -210,6 +210,7 @@ def _per_input(
 
 def _seconds(text: str) -> float:
     try:
-        return float(text)
+        x = float(text)
     except ValueError as exc:
         raise click.BadParameter(f"{text!r} is not a number of seconds", param_hint="--offset") from exc
+    return check_number(x, -1e10, 1e10, "s", "--offset", text)

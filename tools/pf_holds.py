@@ -93,6 +93,8 @@ def main(
     [m/s] in the hold map's frame, hold_id at grips (-1: elsewhere) and
     cluster_prob. Needs the columns grip (detect-events --kind grips) and
     acc_*, gyr_*, mag_*."""
+    if route is not None and not route.strip():
+        raise click.BadParameter("is empty; expected a route name of the hold map", param_hint="--route")
     table, meta = tool.read()
     schema.require_columns(
         table,

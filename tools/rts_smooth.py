@@ -11,16 +11,19 @@ from sportfusion.skijump.hillfile import hill_from_meta
 from sportfusion.skijump.smoother import rts_smooth_table
 from sportfusion.skijump.smoother_inputs import IMU_COLUMNS, SmootherConfig, load_config
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import hill_options, load_hill_option
+from sportfusion.tools._options import check_number, hill_options, load_hill_option
 
 
 def _times(text: str | None, option: str) -> list[float] | None:
     if text is None:
         return None
     try:
-        return [float(v) for v in text.split(",") if v.strip()]
+        vals = [float(v) for v in text.split(",") if v.strip()]
     except ValueError as exc:
         raise click.BadParameter(f"{text!r} is not comma-separated seconds", param_hint=option) from exc
+    if not vals:
+        raise click.BadParameter(f"{text!r} is not comma-separated seconds", param_hint=option)
+    return [check_number(v, -1e6, 1e7, "s", option, text) for v in vals]
 
 
 @tool(

@@ -179,6 +179,8 @@ def main(
         size = video_size.lower().split("x")
         if len(size) != 2 or not all(v.strip().isdigit() for v in size):
             raise click.BadParameter(f"{video_size!r} is not WIDTHxHEIGHT in pixels", param_hint="--video-size")
+        if not all(16 <= int(v) <= 7680 for v in size):
+            raise click.BadParameter(f"{video_size!r}: each side must be 16 .. 7680 px", param_hint="--video-size")
         cam = parse_floats(video_camera, 3, "--video-camera")
         vopts = RenderOptions(
             width=int(size[0]),

@@ -7,6 +7,7 @@ import click
 from sportfusion.core.session import with_columns
 from sportfusion.skirace.track import smooth_session
 from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import check_number
 
 
 def _lambda(value: str) -> float | None:
@@ -16,7 +17,7 @@ def _lambda(value: str) -> float | None:
         lam = float(value)
     except ValueError as exc:
         raise click.BadParameter(f"{value!r} is not a number in [0, 1] or 'gcv'", param_hint="--lambda") from exc
-    if not 0.0 <= lam <= 1.0:
+    if not 0.0 <= lam <= 1.0:  # NaN fails this too
         raise click.BadParameter(f"{value!r} is outside [0, 1]", param_hint="--lambda")
     return lam
 
@@ -25,9 +26,13 @@ def _segment(text: str) -> tuple[float, float, float]:
     try:
         span, value = text.split("=")
         t0, t1 = span.split(":")
-        return float(t0), float(t1), float(value)
+        vals = float(t0), float(t1), float(value)
     except ValueError as exc:
         raise click.BadParameter(f"{text!r} is not T0:T1=LAMBDA", param_hint="--segment") from exc
+    check_number(vals[0], -1e6, 1e7, "s", "--segment", text)
+    check_number(vals[1], vals[0], 1e7, "s", "--segment", text)
+    check_number(vals[2], 0, 1, "", "--segment", text)
+    return vals
 
 
 @tool(

@@ -45,9 +45,38 @@ def table_from_bytes(data: bytes, *, what: str = "input") -> pa.Table:
             f"{what} is not a Parquet file (no PAR1 magic); expected a table written by a sportfusion tool"
         )
     try:
+        check_declared_size(pq.ParquetFile(_io.BytesIO(data)).metadata, len(data), what)
         return pq.read_table(_io.BytesIO(data), use_threads=False)
     except (pa.ArrowException, OSError) as exc:
-        raise InputError(f"{what} is not a readable Parquet file ({exc})") from exc
+        raise InputError(f"{what} is not a readable Parquet file ({_first_line(str(exc))})") from exc
+
+
+def _first_line(text: str) -> str:
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    return lines[0] if lines else text
+
+
+#: Limits on what a Parquet footer may declare before the table is read (a "Parquet bomb": a tiny
+#: file whose footer declares billions of rows): the table's estimated size in memory [bytes], and
+#: that size over the file size (applied above 64 MiB).  Override: SPORTFUSION_MAX_TABLE_BYTES.
+MAX_TABLE_BYTES = 4 * 1024**3
+MAX_TABLE_RATIO = 1000.0
+
+
+def check_declared_size(md: pq.FileMetaData, file_size: int, what: str = "input") -> None:
+    """Refuse a Parquet file whose footer declares a table too big to read, or absurdly bigger than the file."""
+    try:
+        cap = float(os.environ.get("SPORTFUSION_MAX_TABLE_BYTES", MAX_TABLE_BYTES))
+    except ValueError:
+        cap = MAX_TABLE_BYTES
+    declared = sum(max(md.row_group(i).total_byte_size, 0) for i in range(md.num_row_groups))
+    est = max(declared, md.num_rows * max(md.num_columns, 1) * 8)
+    if md.num_rows < 0 or est > cap or (est > 64 * 1024**2 and est > MAX_TABLE_RATIO * max(file_size, 1)):
+        raise InputError(
+            f"{what} declares {md.num_rows} rows x {md.num_columns} columns (~{est / 1024**2:.0f} MiB in memory) "
+            f"in a {file_size / 1024**2:.1f} MiB file; refused (limits: {cap / 1024**2:.0f} MiB, "
+            f"{MAX_TABLE_RATIO:g}x the file size; SPORTFUSION_MAX_TABLE_BYTES)"
+        )
 
 
 def get_meta(table: pa.Table) -> dict[str, Any]:
@@ -91,7 +120,32 @@ def read_table(
         from sportfusion.core.session import validate_time
 
         validate_time(table)
+    if meta["kind"] in SURVEYED:
+        check_positions(table, name)
     return table, meta
+
+
+#: Table kinds that are surveys of fixed points (a hold map, a gate survey): every position must be finite.
+SURVEYED = ("holds", "gates")
+_RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "h": (-1000.0, 10000.0)}
+
+
+def check_positions(table: pa.Table, name: str) -> None:
+    """Refuse a survey whose position columns (x y z, lat lon h) hold null, NaN, inf or impossible values."""
+    import numpy as np
+
+    for col in ("x", "y", "z", "lat", "lon", "h"):
+        if col not in table.column_names:
+            continue
+        v = schema.floats(table, col)
+        lo, hi = _RANGES.get(col, (-1e6, 1e6))
+        bad = np.flatnonzero(~(np.isfinite(v) & (v >= lo) & (v <= hi)))
+        if bad.size:
+            rows = ", ".join(str(i) for i in bad[:5]) + (", ..." if bad.size > 5 else "")
+            raise InputError(
+                f"{name}: column {col} holds {bad.size} NaN, inf, missing or out-of-range value(s) "
+                f"(row{'s' if bad.size > 1 else ''} {rows}); expected every surveyed position finite in {lo:g}..{hi:g}"
+            )
 
 
 def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
@@ -161,12 +215,20 @@ def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[st
         return
     path = Path(dest)
     folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    if not folder.is_dir():
+        raise InputError(f"cannot write {dest}: the folder {folder} does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"cannot write {dest}: {exc.strerror or exc}") from exc
     try:
         os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; an output file gets the usual permissions
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise InputError(f"cannot write {dest}: {exc.strerror or exc}") from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -50,13 +50,21 @@ def new_meta(kind: str = "session", epoch_utc: float | str | None = None) -> dic
     }
 
 
+#: Session times accepted (years, UTC): sensors with a clock, before any far-future nonsense.
+MIN_YEAR, MAX_YEAR = 1970, 2099
+
+
 def format_epoch(epoch: float | str | None) -> str | None:
     """Unix seconds or an ISO string -> canonical ISO-8601 UTC string (microseconds, 'Z')."""
     if epoch is None:
         return None
     if isinstance(epoch, str):
         epoch = parse_epoch(epoch)
-    dt = datetime.fromtimestamp(float(epoch), tz=UTC)
+    x = float(epoch)
+    lo, hi = datetime(MIN_YEAR, 1, 1, tzinfo=UTC).timestamp(), datetime(MAX_YEAR + 1, 1, 1, tzinfo=UTC).timestamp()
+    if not (math.isfinite(x) and lo <= x < hi):
+        raise InputError(f"session start time {x:g} s (Unix) is not in the years {MIN_YEAR}..{MAX_YEAR}")
+    dt = datetime.fromtimestamp(x, tz=UTC)
     return dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
@@ -68,6 +76,8 @@ def parse_epoch(text: str) -> float:
         raise InputError(f"metadata key 'time.epoch_utc' is {text!r}, expected an ISO-8601 UTC time") from exc
     if dt.tzinfo is None:
         dt = dt.replace(tzinfo=UTC)
+    if not MIN_YEAR <= dt.astimezone(UTC).year <= MAX_YEAR:
+        raise InputError(f"metadata key 'time.epoch_utc' is {text!r}, expected a time in {MIN_YEAR}..{MAX_YEAR}")
     return dt.timestamp()
 
 
@@ -121,8 +131,12 @@ def validate_meta(meta: Any) -> dict[str, Any]:
             or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in origin)
         ):
             raise _bad("frame.origin", "must be [lat_deg, lon_deg, h_m]")
-        if not isinstance(frame["azimuth_deg"], (int, float)):
-            raise _bad("frame.azimuth_deg", "must be a number (deg)")
+        lat, lon, h = origin
+        if not (-90 <= lat <= 90 and -180 <= lon <= 360 and -1000 <= h <= 10000):
+            raise _bad("frame.origin", f"is {origin}, expected lat -90..90 deg, lon -180..360 deg, h -1000..10000 m")
+        az = frame["azimuth_deg"]
+        if isinstance(az, bool) or not isinstance(az, (int, float)) or not -360 <= az <= 360:
+            raise _bad("frame.azimuth_deg", f"is {az!r}, expected a number in -360..360 (deg)")
     units = meta.get("units")
     if units is not None and (not isinstance(units, dict) or not all(isinstance(v, str) for v in units.values())):
         raise _bad("units", "must map column names to unit strings")
@@ -146,7 +160,9 @@ def decode(raw: bytes | None) -> dict[str, Any]:
 def encode(meta: dict[str, Any]) -> bytes:
     """Validate and encode metadata as compact UTF-8 JSON."""
     validate_meta(meta)
-    return json.dumps(meta, separators=(",", ":"), allow_nan=False, default=_jsonable).encode()
+    # NaN/inf are not JSON: a parameter that is "inf (off)" or a statistic without a value is null
+    clean = _finite(json.loads(json.dumps(meta, default=_jsonable, allow_nan=True)))
+    return json.dumps(clean, separators=(",", ":"), allow_nan=False).encode()
 
 
 def _jsonable(obj: Any) -> Any:

@@ -310,3 +310,94 @@ def with_columns(table: pa.Table, columns: Mapping[str, object]) -> pa.Table:
         else:
             table = table.append_column(name, arr)
     return table
+
+
+#: Measured (raw sensor) columns: a reader may keep what the file said there, so they are never
+#: rewritten by :func:`nonfinite_to_null`; everything else a tool writes is an estimate or derived.
+RAW_PREFIXES = ("acc_", "gyr_", "mag_", "vel_", "dev_q", "true_", "gnss_sigma", "gnss_sd")
+RAW_NAMES = frozenset({"t", "lat", "lon", "h", "h_msl", "pressure", "gnss_hdop", "gnss_speed", "gnss_course"})
+
+
+def is_raw(name: str) -> bool:
+    """Whether ``name`` is a measured sensor column (see :data:`RAW_PREFIXES`)."""
+    return (
+        name in RAW_NAMES
+        or name.startswith(RAW_PREFIXES)
+        or name.startswith("gnss_")
+        and name[5:]
+        in (
+            "age",
+            "ratio",
+        )
+    )
+
+
+def nonfinite_to_null(
+    table: pa.Table, keep: set[str] | frozenset[str] = frozenset()
+) -> tuple[pa.Table, dict[str, int]]:
+    """Replace NaN and +-inf by null in the floating-point estimate columns of ``table``.
+
+    A command never writes NaN/inf into an estimate: where there is none the value is null.
+    Raw sensor columns (:func:`is_raw`) and the columns named in ``keep`` (passed through
+    unchanged from the input) are left as they are.
+
+    Returns
+    -------
+    table : pyarrow.Table
+    counts : dict
+        Column name -> number of values made null (only columns that had some).
+    """
+    import pyarrow.compute as pc
+
+    counts: dict[str, int] = {}
+    for i, name in enumerate(table.column_names):
+        col = table.column(i)
+        if name in keep or is_raw(name) or not pa.types.is_floating(col.type):
+            continue
+        bad = pc.invert(pc.is_finite(col))  # null stays null; NaN and inf are True
+        n = pc.sum(bad).as_py() or 0
+        if n:
+            counts[name] = int(n)
+            table = table.set_column(i, table.field(i), pc.if_else(bad, pa.scalar(None, col.type), col))
+    return table, counts
+
+
+#: Physically possible magnitudes of raw sensor values [column unit]; beyond them (or NaN/inf) a
+#: value is a corrupt sample, dropped to null when a table is read (the reader says how many).
+POSSIBLE: dict[str, float] = {
+    "acc_": 2000.0,  # m/s^2 (about 200 g; consumer IMUs clip at 16-32 g)
+    "gyr_": 200.0,  # rad/s (about 11,000 deg/s)
+    "mag_": 10000.0,  # uT (Earth ~25-65 uT; a magnet at the sensor a few mT)
+    "vel_": 1000.0,  # m/s
+    "gnss_sigma": 1e6,  # m
+    "gnss_sd": 1e6,  # m
+}
+_POSSIBLE_RANGE = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "h": (-1000.0, 100000.0), "h_msl": (-1000.0, 100000.0)}
+
+
+def drop_impossible(table: pa.Table) -> tuple[pa.Table, dict[str, int]]:
+    """Null the raw sensor values that are NaN, inf or physically impossible (see :data:`POSSIBLE`).
+
+    Returns the cleaned table and column name -> number of values dropped (columns with any).
+    """
+    import pyarrow.compute as pc
+
+    counts: dict[str, int] = {}
+    for i, name in enumerate(table.column_names):
+        col = table.column(i)
+        if not pa.types.is_floating(col.type):
+            continue
+        if name in _POSSIBLE_RANGE:
+            lo, hi = _POSSIBLE_RANGE[name]
+        else:
+            bound = next((v for k, v in POSSIBLE.items() if name.startswith(k)), None)
+            if bound is None:
+                continue
+            lo, hi = -bound, bound
+        ok = pc.and_(pc.is_finite(col), pc.and_(pc.greater_equal(col, lo), pc.less_equal(col, hi)))
+        bad = pc.invert(ok)
+        n = pc.sum(bad).as_py() or 0
+        if n:
+            counts[name] = int(n)
+            table = table.set_column(i, table.field(i), pc.if_else(bad, pa.scalar(None, col.type), col))
+    return table, counts

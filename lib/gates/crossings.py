@@ -259,6 +259,11 @@ def read_calibration(path: str) -> MagnetCalibration:
             d, b = data[:, 0], data[:, 1]
     except OSError as exc:
         raise InputError(f"calibration table {path}: {exc.strerror or exc}") from exc
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(
+            f"calibration table {path} is not readable text CSV ({type(exc).__name__}); "
+            "expected two columns, distance [m] and peak intensity [1]"
+        ) from exc
     return fit_calibration(d, b, source=f"user table {path}")
 
 

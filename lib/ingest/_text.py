@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import math
 import re
+import zipfile
 
 import numpy as np
 import pyarrow as pa
@@ -297,3 +298,60 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     """Column as a float64 numpy array, nulls as NaN."""
     col = table.column(name).cast(pa.float64(), safe=False)
     return np.asarray(col.fill_null(np.nan).to_numpy(), dtype=np.float64)
+
+
+#: Decompression limits for ZIP exports (a "zip bomb" is refused before it is inflated):
+#: the total uncompressed size of the members read [bytes] and each member's compression ratio.
+#: Override with the environment variables SPORTFUSION_MAX_UNZIPPED (bytes) and SPORTFUSION_MAX_ZIP_RATIO.
+MAX_UNZIPPED = 2 * 1024**3
+MAX_ZIP_RATIO = 200.0
+
+
+def _limit(env: str, default: float) -> float:
+    import os
+
+    try:
+        value = float(os.environ.get(env, default))
+    except ValueError:
+        return default
+    return value if math.isfinite(value) and value > 0 else default
+
+
+def read_zip_members(zf: zipfile.ZipFile, names: list[str], where: str) -> dict[str, bytes]:
+    """Bytes of the named members of an open ZIP, refusing decompression bombs.
+
+    The declared sizes are checked first (total at most :data:`MAX_UNZIPPED` bytes, each member's
+    ratio uncompressed/compressed at most :data:`MAX_ZIP_RATIO`); the members are then inflated
+    in chunks with the running total capped, so a member that lies about its size is stopped too.
+    Member names are only used as keys: nothing is ever written to disk.
+    """
+    cap = _limit("SPORTFUSION_MAX_UNZIPPED", MAX_UNZIPPED)
+    ratio = _limit("SPORTFUSION_MAX_ZIP_RATIO", MAX_ZIP_RATIO)
+    infos = [zf.getinfo(n) for n in names]
+    total = sum(i.file_size for i in infos)
+    if total > cap:
+        raise InputError(
+            f"{where}: the ZIP declares {total / 1024**2:.0f} MiB uncompressed, over the limit of "
+            f"{cap / 1024**2:.0f} MiB (SPORTFUSION_MAX_UNZIPPED); refused as a possible decompression bomb"
+        )
+    for i in infos:
+        if i.file_size > 1024**2 and i.file_size > ratio * max(i.compress_size, 1):
+            raise InputError(
+                f"{where}: ZIP member {i.filename!r} inflates {i.file_size / max(i.compress_size, 1):.0f}-fold, over "
+                f"the limit of {ratio:g} (SPORTFUSION_MAX_ZIP_RATIO); refused as a possible decompression bomb"
+            )
+    out: dict[str, bytes] = {}
+    used = 0
+    for i in infos:
+        chunks, got = [], 0
+        with zf.open(i) as fh:
+            while chunk := fh.read(1 << 20):
+                used, got = used + len(chunk), got + len(chunk)
+                if used > cap or got > i.file_size:
+                    raise InputError(
+                        f"{where}: ZIP member {i.filename!r} inflates beyond its declared size or the limit of "
+                        f"{cap / 1024**2:.0f} MiB; refused as a possible decompression bomb"
+                    )
+                chunks.append(chunk)
+        out[i.filename] = b"".join(chunks)
+    return out

@@ -71,7 +71,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.ingest._text import UNITS, decode, floats, read_delimited, split_header, unit_factor
+from sportfusion.ingest._text import UNITS, decode, floats, read_delimited, read_zip_members, split_header, unit_factor
 
 #: Radius of the 68 % circle of a circular Gaussian, in per-axis sigmas: sqrt(-2 ln 0.32).
 ACCURACY_68_TO_SIGMA = math.sqrt(-2.0 * math.log(0.32))
@@ -162,9 +162,8 @@ def _members(path: Path) -> dict[str, bytes]:
                 out[p.relative_to(path).as_posix()] = p.read_bytes()
         elif zipfile.is_zipfile(path):
             with zipfile.ZipFile(path) as zf:
-                for name in sorted(zf.namelist()):
-                    if name.lower().endswith(".csv") and not name.endswith("/"):
-                        out[name] = zf.read(name)
+                names = [n for n in sorted(zf.namelist()) if n.lower().endswith(".csv") and not n.endswith("/")]
+                out.update(read_zip_members(zf, names, str(path)))
         else:
             out[path.name] = path.read_bytes()
             meta = path.parent / "meta"

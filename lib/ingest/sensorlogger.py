@@ -59,7 +59,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
-from sportfusion.ingest._text import decode, floats, read_delimited
+from sportfusion.ingest._text import decode, floats, read_delimited, read_zip_members
 
 #: Radius of the 68 % circle of a circular Gaussian, in per-axis sigmas: sqrt(-2 ln 0.32).
 ACCURACY_68_TO_SIGMA = math.sqrt(-2.0 * math.log(0.32))
@@ -108,9 +108,9 @@ def _members(path: Path) -> dict[str, tuple[str, bytes]]:
                 out[p.stem.lower()] = (p.name, p.read_bytes())
         elif zipfile.is_zipfile(path):
             with zipfile.ZipFile(path) as zf:
-                for name in sorted(zf.namelist()):
-                    if name.lower().endswith(".csv") and not name.endswith("/"):
-                        out[PurePosixPath(name).stem.lower()] = (PurePosixPath(name).name, zf.read(name))
+                names = [n for n in sorted(zf.namelist()) if n.lower().endswith(".csv") and not n.endswith("/")]
+                for name, data in read_zip_members(zf, names, str(path)).items():
+                    out[PurePosixPath(name).stem.lower()] = (PurePosixPath(name).name, data)
         else:
             out[path.stem.lower()] = (path.name, path.read_bytes())
     except (OSError, zipfile.BadZipFile) as exc:

@@ -154,6 +154,9 @@ class Certificate:
         for k, v in d.items():
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise InputError(f"{where}: '{k}' is {v!r}, expected a finite number [{PARAMETERS[k][0]}]")
+            bound = 90.0 if PARAMETERS[k][0] == "deg" else 1e5
+            if abs(v) > bound:
+                raise InputError(f"{where}: '{k}' is {v!r}, expected -{bound:g} .. {bound:g} {PARAMETERS[k][0]}")
             vals[k] = float(v)
         return cls(type=typ, gates=gates, **vals)
 

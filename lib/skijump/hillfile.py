@@ -234,6 +234,12 @@ def load_hill(spec: str, overrides: Mapping[str, str] | None = None) -> Hill:
     site = {k: _number(k, v, f"hill file {where} [site]") for k, v in site_raw.items()}
     if "lat" in site and not -90 <= site["lat"] <= 90:
         raise InputError(f"hill file {where}: site lat = {site['lat']} deg, expected -90 .. 90")
+    for key, lo, hi in (("lon", -180, 360), ("height", -1000, 10000), ("azimuth_deg", -360, 360)):
+        if key in site and not lo <= site[key] <= hi:
+            raise InputError(f"hill file {where}: site {key} = {site[key]} {SITE_KEYS[key]}, expected {lo} .. {hi}")
+    for key in ("mag_n", "mag_e", "mag_d"):
+        if key in site and abs(site[key]) > 200:
+            raise InputError(f"hill file {where}: site {key} = {site[key]} uT, expected -200 .. 200")
     if "g0" in site and not 9.7 < site["g0"] < 9.9:
         raise InputError(f"hill file {where}: site g0 = {site['g0']} m/s^2, expected a value near 9.81")
     try:

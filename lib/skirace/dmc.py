@@ -133,6 +133,11 @@ def dmc_session(
     rows, f_b, m_b = rows[good], f_b[good], m_b[good]
     dt = np.diff(t[rows])
     fs = 1.0 / float(np.median(dt)) if dt.size else 1.0
+    if lowpass_hz >= fs / 2:
+        raise InputError(
+            f"low-pass cut-off {lowpass_hz:g} Hz is at or above the Nyquist frequency {fs / 2:.4g} Hz of the "
+            "accelerometer rows; expected a lower cut-off (or 0: none)"
+        )
     if lowpass_hz > 0:
         f_b = lowpass(f_b, fs, lowpass_hz)
         m_b = lowpass(m_b, fs, lowpass_hz)

@@ -59,7 +59,42 @@ def open_video(path: str | Path) -> tuple[cv2.VideoCapture, VideoInfo]:
     if not (math.isfinite(fps) and fps > 0) or w <= 0 or h <= 0:
         cap.release()
         raise InputError(f"cannot read video {p}: no frame size or frame rate; expected a video file")
+    if w > MAX_SIDE or h > MAX_SIDE or w * h > MAX_FRAME_PIXELS or fps > 10000:
+        cap.release()
+        raise InputError(
+            f"video {p} declares {w}x{h} px frames at {fps:g} fps; refused (limits: {MAX_SIDE} px a side, "
+            f"{MAX_FRAME_PIXELS / 1e6:g} Mpx a frame, 10000 fps)"
+        )
+    if n > 0 and n * thumb_bytes(w, h) > _max_video_bytes():
+        cap.release()
+        raise InputError(
+            f"video {p} declares {n} frames of {w}x{h} px, ~{n * thumb_bytes(w, h) / 1024**2:.0f} MiB of "
+            f"thumbnails; refused (limit {_max_video_bytes() / 1024**2:.0f} MiB, SPORTFUSION_MAX_VIDEO_BYTES)"
+        )
     return cap, VideoInfo(str(p), w, h, fps, n)
+
+
+#: Limits on what a video may declare (a hostile file must not exhaust memory): frame side [px],
+#: frame area [px], and the grey thumbnails kept in memory [bytes] (SPORTFUSION_MAX_VIDEO_BYTES).
+MAX_SIDE = 16384
+MAX_FRAME_PIXELS = 40_000_000
+MAX_VIDEO_BYTES = 2 * 1024**3
+
+
+def _max_video_bytes() -> float:
+    import os
+
+    try:
+        value = float(os.environ.get("SPORTFUSION_MAX_VIDEO_BYTES", MAX_VIDEO_BYTES))
+    except ValueError:
+        return MAX_VIDEO_BYTES
+    return value if math.isfinite(value) and value > 0 else MAX_VIDEO_BYTES
+
+
+def thumb_bytes(width: int, height: int) -> int:
+    """Bytes of one grey thumbnail of a ``width`` x ``height`` frame (see :func:`read_thumbnails`)."""
+    k = max(1, math.ceil(width / THUMB_WIDTH))
+    return (width // k) * (height // k)
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
@@ -90,8 +125,15 @@ def read_thumbnails(path: str | Path, progress: Progress = _no_progress) -> tupl
                 return
             yield fr
 
+    budget, used = _max_video_bytes(), 0
     try:
         for fr in progress(frames(), info.frames or None, "reading"):
+            used += size[0] * size[1]
+            if used > budget:
+                raise InputError(
+                    f"video {info.path} has more frames than fit the limit of {budget / 1024**2:.0f} MiB of "
+                    "thumbnails (SPORTFUSION_MAX_VIDEO_BYTES); refused"
+                )
             if k > 1:  # decimate first: the grey conversion then costs 1/k^2
                 fr = np.ascontiguousarray(fr[: size[1] * k : k, : size[0] * k : k])
             thumbs.append(_gray(fr))
