@@ -272,6 +272,8 @@ def check_option_values(cmd: click.Command, values: dict[str, Any]) -> None:
         items = value if isinstance(value, tuple) else (value,)
         if longest in FLOAT_LISTS:
             for item in items:
+                if longest == "--origin" and str(item).strip().lower() == "auto":
+                    continue  # gps2hill --origin auto: the first fix (no numbers to check)
                 parse_floats(str(item), len(FLOAT_LISTS[longest]), longest)
         elif longest in ("--takeoff", "--touchdown"):  # comma-separated instants [s]
             for item in items:
