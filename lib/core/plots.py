@@ -137,6 +137,18 @@ def unwrap_deg(angle: np.ndarray) -> np.ndarray:
     return a
 
 
+def finish_time_panels(
+    fig: Figure, axes: Any, events: list[tuple[float, str]], title: str | None, default_title: str
+) -> None:
+    """Close a stack of panels against time: events marked on every panel (labelled on the top one), the
+    time axis [s] labelled on the bottom one, the title (``default_title`` with ``{}`` where the note on the
+    dashed event lines goes, when there are events)."""
+    for k, ax in enumerate(axes):
+        _mark_events(ax, events, label=k == 0)
+    axes[-1].set_xlabel("t [s]")
+    fig.suptitle(title or default_title.format("; dashed lines: events" if events else ""))
+
+
 def legend_outside(ax: Axes, **kwargs: Any) -> Any:
     """The axes' legend to its right, outside the plotted area, so that it never covers data."""
     kwargs = {"fontsize": 8, **kwargs}
@@ -308,12 +320,8 @@ def series_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width:
         ax.set_ylabel(label)
         ax.grid(True, lw=0.4, alpha=0.6)
         legend_outside(ax, fontsize=7)
-    for k, ax in enumerate(axes):
-        _mark_events(ax, events, label=k == 0)
-    axes[-1].set_xlabel("t [s]")
     frame = (meta.get("frame") or {}).get("name", "local")
-    what = "; dashed lines: events" if events else ""
-    fig.suptitle(title or f"estimates against time ({frame} frame{what}; bands: 1-sigma)")
+    finish_time_panels(fig, axes, events, title, f"estimates against time ({frame} frame{{}}; bands: 1-sigma)")
     return fig
 
 
@@ -386,9 +394,5 @@ def errors_figure(table: pa.Table, truth: pa.Table, title: str = "", width: floa
         ax.set_ylabel("attitude error [deg]")
         ax.grid(True, lw=0.4, alpha=0.6)
         legend_outside(ax, fontsize=7)
-    for k, ax in enumerate(axes):
-        _mark_events(ax, events, label=k == 0)
-    axes[-1].set_xlabel("t [s]")
-    what = "; dashed lines: events" if events else ""
-    fig.suptitle(title or f"estimate minus truth (bands: estimated 1-sigma{what})")
+    finish_time_panels(fig, axes, events, title, "estimate minus truth (bands: estimated 1-sigma{})")
     return fig

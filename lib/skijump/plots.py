@@ -11,7 +11,15 @@ import pyarrow as pa
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
-from sportfusion.core.plots import _AX, _col, _mark_events, _new_figure, events_of, legend_outside, place_labels
+from sportfusion.core.plots import (
+    _AX,
+    _col,
+    _new_figure,
+    events_of,
+    finish_time_panels,
+    legend_outside,
+    place_labels,
+)
 from sportfusion.skijump.hill import HillProfile
 
 if TYPE_CHECKING:
@@ -290,9 +298,5 @@ def mag_figure(table: pa.Table, title: str = "", width: float = 12.0) -> Figure:
         ax.set_ylabel(f"mag_{a} [{unit}]")
         ax.grid(True, lw=0.4, alpha=0.6)
         legend_outside(ax, fontsize=7)
-    for k, ax in enumerate(axes):
-        _mark_events(ax, events, label=k == 0)
-    axes[-1].set_xlabel("t [s]")
-    what = "; dashed lines: events" if events else ""
-    fig.suptitle(title or f"magnetometer: measured vs estimated (body frame{what})")
+    finish_time_panels(fig, axes, events, title, "magnetometer: measured vs estimated (body frame{})")
     return fig
