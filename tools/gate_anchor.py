@@ -78,6 +78,21 @@ from sportfusion.tools._cli import Tool, tool
     "or normal (the paper's eq 6, along the snow-plane normal) [choice].",
 )
 @click.option(
+    "--static-height",
+    default=GateAnchorParams.static_height,
+    show_default=True,
+    type=click.FloatRange(0, 3),
+    help="Sacrum height above the snow in the static upright posture, vertically above a surveyed start or "
+    "finish spot (gates table rows with point = start / finish) [m].",
+)
+@click.option(
+    "--sigma-spot",
+    default=GateAnchorParams.sigma_spot,
+    show_default=True,
+    type=click.FloatRange(0, None, min_open=True),
+    help="1-sigma of a surveyed static spot as an anchor of the standing sacrum [m].",
+)
+@click.option(
     "--q-jerk",
     default=EKSParams.q_jerk,
     show_default=True,
@@ -101,6 +116,8 @@ def main(
     sacrum_height: float,
     burial: float,
     projection: str,
+    static_height: float,
+    sigma_spot: float,
     q_jerk: float,
     sigma_acc: float,
 ) -> None:
@@ -115,7 +132,10 @@ def main(
     the anchors (1 m, then 0.1 m after re-matching). Writes x y z, vx vy vz and
     std_ columns on every row, and at each crossing the matched gate, whether it
     was an anchor and the turn's figures (speeds at the turn switches, distances
-    to the gate, path length)."""
+    to the gate, path length). Where the gates table also surveys the spots the
+    athlete stands on for the static postures (rows with point = start / finish),
+    each anchors the standing sacrum (--static-height above the mark): without
+    them the track drifts where no gate anchors it, at the start and the finish."""
     table, meta = tool.read()
     survey, smeta = (None, None)
     if gates_path:
@@ -128,6 +148,8 @@ def main(
         sacrum_height=sacrum_height,
         burial=burial,
         projection=projection,
+        static_height=static_height,
+        sigma_spot=sigma_spot,
         eks=EKSParams(q_jerk=q_jerk, sigma_acc=sigma_acc),
     )
     out, meta, msg = gate_anchor_table(table, meta, survey, smeta, params)

@@ -50,6 +50,11 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
     type=click.FloatRange(1, 60),
     help="Static posture at start and finish [s].",
 )
+@click.option(
+    "--survey-spots",
+    is_flag=True,
+    help="Also survey the snow spots of the static postures: rows point = start / finish in --gates [flag].",
+)
 @course_site_options("46.8345,9.2103,1600", 20.0, "2026-01-20T10:00:00Z")
 def main(
     tool: Tool,
@@ -61,6 +66,7 @@ def main(
     n_gates: int | None,
     spurious: int,
     static: float,
+    survey_spots: bool,
     site: str,
     azimuth: float,
     date: str,
@@ -74,12 +80,14 @@ def main(
     Earth field plus each magnet's dipole field, decaying with the cube of the
     distance), with bias, noise and ski vibration. The truth (true_x.., true_vx..,
     true_q0..3, and true_event/true_gate/true_gate_distance/true_turn at the
-    gate crossings) goes to --truth; the magnet survey (with survey noise) to --gates."""
+    gate crossings) goes to --truth; the magnet survey (with survey noise) to --gates, with --survey-spots also the
+    spots the athlete stands on at the start and the finish."""
     cfg = GatesConfig(
         seed=seed,
         downhill=downhill,
         spurious=spurious,
         static=static,
+        survey_spots=survey_spots,
         site=tuple(parse_floats(site, 3, "--site")),  # type: ignore[arg-type]
         azimuth_deg=azimuth,
         date=sfmeta.format_epoch(date) or date,

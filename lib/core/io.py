@@ -130,6 +130,44 @@ SURVEYED = ("holds", "gates")
 _RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "h": (-1000.0, 10000.0)}
 
 
+#: Surveyed spots a ``gates`` table may hold besides its magnets (column ``point``): where the athlete stands
+#: still for the static postures at the start and at the finish (the snow point under the feet).
+STATIC_POINTS = ("start", "finish")
+
+
+def survey_points(table: pa.Table) -> tuple[pa.Table, pa.Table | None]:
+    """Split a ``gates`` table into its magnets and its surveyed static spots.
+
+    Rows whose optional ``point`` column is ``start`` or ``finish`` are the spots; rows with ``gate``, an
+    empty or a null ``point`` are magnets.  Without the column every row is a magnet.
+
+    Returns
+    -------
+    (gates, spots)
+        Two tables with the input's columns; ``spots`` is None when there are none.
+
+    Raises
+    ------
+    InputError
+        On another ``point`` value or a spot surveyed twice.
+    """
+    import numpy as np
+
+    if "point" not in table.column_names:
+        return table, None
+    pts = ["" if v is None else str(v).strip().lower() for v in table.column("point").to_pylist()]
+    bad = sorted({v for v in pts if v not in ("", "gate", *STATIC_POINTS)})
+    if bad:
+        raise InputError(f"gate survey: column point holds {bad}; expected gate, start, finish or empty")
+    for name in STATIC_POINTS:
+        if pts.count(name) > 1:
+            raise InputError(f"gate survey: the {name} spot is surveyed {pts.count(name)} times; expected once")
+    spot = np.array([v in STATIC_POINTS for v in pts], dtype=bool)
+    if not spot.any():
+        return table, None
+    return table.filter(pa.array(~spot)), table.filter(pa.array(spot))
+
+
 def check_positions(table: pa.Table, name: str) -> None:
     """Refuse a survey whose position columns (x y z, lat lon h) hold null, NaN, inf or impossible values."""
     import numpy as np

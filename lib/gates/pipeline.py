@@ -68,6 +68,11 @@ class GateAnchorParams:
         physics of the detector: the peak of ``|B|`` of a vertical dipole comes when the sensor is above the
         magnet, which on a 12 deg slope is about 0.1 m before the closest approach (measured on the
         simulator: position error 0.16 -> 0.08 m on one run).
+    static_height : float
+        Sacrum height above the snow in the static upright posture at the start and finish [m], vertically
+        above the surveyed mark (used with surveyed static spots only).
+    sigma_spot : float
+        1-sigma of a surveyed static spot as an anchor of the sacrum [m] (posture and stance on the mark).
     """
 
     rate: float = 100.0
@@ -77,6 +82,8 @@ class GateAnchorParams:
     sacrum_height: float = 0.95
     burial: float = 0.05
     projection: str = "vertical"
+    static_height: float = 1.0
+    sigma_spot: float = 0.05
     eks: EKSParams = field(default_factory=EKSParams)
     match: MatchParams = field(default_factory=MatchParams)
 
@@ -133,6 +140,29 @@ def _anchor_updates(
         z = g_j - rel[m] + vc[m] * (tg[k] - cross["t"][m])
         out.append(Anchor(k, z, sigma))
     return out, used
+
+
+def _spot_anchors(
+    tg: np.ndarray,
+    windows: dict[str, tuple[float, float]],
+    spots: dict[str, np.ndarray],
+    survey: np.ndarray,
+    alpha: float,
+    offset: np.ndarray,
+    p: GateAnchorParams,
+) -> list[Anchor]:
+    """Anchors of the static postures on surveyed spots: the sacrum ``static_height`` vertically above the mark
+    (standing still, the body balances its centre of mass over the feet), at the middle step of the static
+    window (the zero-velocity updates hold it there)."""
+    out = []
+    for name, spot in spots.items():
+        if name not in windows:
+            continue
+        a, b = windows[name]
+        k = int(np.clip(np.searchsorted(tg, 0.5 * (a + b)), 0, tg.size - 1))
+        sacrum = spot - np.array([0.0, 0.0, p.static_height])  # z down
+        out.append(Anchor(k, rotate_z(sacrum - offset, -alpha), p.sigma_spot))
+    return out
 
 
 def _detected_anchors(
@@ -223,6 +253,7 @@ def gate_anchor_arrays(
     gate_numbers: np.ndarray | None = None,
     q_bj: np.ndarray | None = None,
     params: GateAnchorParams | None = None,
+    spots: dict[str, np.ndarray] | None = None,
 ) -> GateAnchorResult:
     """The gate-anchor pipeline on arrays (see the module text).
 
@@ -245,12 +276,16 @@ def gate_anchor_arrays(
     q_bj : ndarray (n, 4), optional
         Attitude (global -> body, scalar first); default strap-down with drift correction.
     params : GateAnchorParams, optional
+    spots : dict, optional
+        Surveyed static spots in the output frame [m]: ``{"start": (3,), "finish": (3,)}``, the snow points
+        where the athlete stands for the static postures; each anchors the sacrum during its posture (EKS 2).
 
     Returns
     -------
     GateAnchorResult
     """
     p = params or GateAnchorParams()
+    spots = {k: np.asarray(v, float) for k, v in (spots or {}).items()}
     survey = np.asarray(survey, float)
     if survey.shape[0] < 3:
         raise InputError(f"the gate survey has {survey.shape[0]} gate(s); gate-anchor needs at least 3")
@@ -268,9 +303,13 @@ def gate_anchor_arrays(
         "height": sacrum_height(np.interp(cross_t, t, roll), p.sacrum_height),
     }
     tg, ag = decimate(t, a_glob, p.rate)
-    zupt = ((tg >= t[static.start[0]]) & (tg <= t[static.start[1] - 1])) | (
-        (tg >= t[static.finish[0]]) & (tg <= t[static.finish[1] - 1])
-    )
+    windows = {
+        "start": (float(t[static.start[0]]), float(t[static.start[1] - 1])),
+        "finish": (float(t[static.finish[0]]), float(t[static.finish[1] - 1])),
+    }
+    zupt = np.zeros(tg.size, bool)
+    for a, b in windows.values():
+        zupt |= (tg >= a) & (tg <= b)
     # EKS 1: inertial only
     r1 = run_eks(tg, ag, g, zupt, None, p.eks)
     p1, v1 = r1.x_smooth[:, 0:3], r1.x_smooth[:, 3:6]
@@ -288,6 +327,7 @@ def gate_anchor_arrays(
     normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
         an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p)
+        an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
         r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
         normal_s, _ = snow_normals(survey, ids)
@@ -305,6 +345,7 @@ def gate_anchor_arrays(
     track2, v2 = track, vel
     # EKS 2, second iteration (anchor sigma 0.1 m)
     an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p)
+    an2 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
     r3 = run_eks(tg, ag, g, zupt, an2, p.eks)
     xs, Ps = r3.x_smooth, r3.P_smooth
     pos_j = xs[:, 0:3] + xs[:, 9:12]
@@ -322,6 +363,7 @@ def gate_anchor_arrays(
         "matched_first": int((m1.ids >= 0).sum()),
         "matched_final": int((ids >= 0).sum()),
         "anchors_final": len(an2),
+        "static_spots": [k for k in ("start", "finish") if k in spots],
         "alpha_deg": float(np.rad2deg(alpha)),
         "offset_m": [float(v) for v in offset],
         "drift_angles_deg": [float(v) for v in np.rad2deg(xs[-1, 12:15])],
@@ -400,10 +442,18 @@ def gate_anchor_table(
         raise InputError("no gate crossings in the session (event 'gate'); run detect-events --kind gates first")
     if survey is None:
         raise InputError(f"{cr['t'].size} gate crossings but no gate survey; give --gates FILE (a gates table)")
+    from sportfusion.core.io import survey_points
+
+    survey, spot_rows = survey_points(survey)
     if survey.num_rows < 3:
         raise InputError(f"the gate survey has {survey.num_rows} gate(s); gate-anchor needs at least 3")
     frame = Frame.from_meta(meta["frame"]) if meta.get("frame") else None
     xyz, frame = survey_in_frame(survey, survey_meta or {}, frame)
+    spots: dict[str, np.ndarray] = {}
+    if spot_rows is not None:
+        sxyz, _ = survey_in_frame(spot_rows, survey_meta or {}, frame)
+        names = [str(v).strip().lower() for v in spot_rows.column("point").to_pylist()]
+        spots = dict(zip(names, sxyz, strict=True))
     order = np.argsort(schema.floats(survey, "gate"), kind="stable")
     xyz = xyz[order]
     numbers = np.asarray(schema.floats(survey, "gate"), dtype=int)[order]
@@ -430,7 +480,9 @@ def gate_anchor_table(
     from sportfusion.estimators.kalman import CovarianceError
 
     try:
-        res = gate_anchor_arrays(t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p)
+        res = gate_anchor_arrays(
+            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots
+        )
     except CovarianceError as exc:
         raise InputError(f"the smoother failed: {exc}") from exc
     cols: dict[str, Any] = {}
@@ -474,6 +526,7 @@ def gate_anchor_table(
         "method": "gates paper Figure 2 (sacrum): strap-down, EKS 1, relative anchors, matching, EKS 2 (1 m, 0.1 m)",
         "attitude": "session q0..q3" if q is not None else "strap-down with drift correction",
         "anchors_every": p.anchors_every,
+        "static_height_m": p.static_height if spots else None,
         **res.passes,
         "turns": res.turns,
     }
@@ -482,5 +535,6 @@ def gate_anchor_table(
     msg = (
         f"{res.passes['matched_final']} of {cr['t'].size} crossings matched to {xyz.shape[0]} gates, "
         f"{res.passes['anchors_final']} anchors, {len(res.turns)} turns"
+        + (f", surveyed static spot(s): {', '.join(res.passes['static_spots'])}" if res.passes["static_spots"] else "")
     )
     return out, meta, msg

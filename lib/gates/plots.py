@@ -25,13 +25,17 @@ def gates_figure(table: pa.Table, gates: pa.Table, title: str = "", width: float
         A session with a trajectory ``x y`` [m] (``gate-anchor`` output) and crossing rows
         (``event == "gate"``, matched ``gate`` id when known).
     gates : pyarrow.Table
-        The survey (kind ``gates``: ``gate x y z`` [m], same local frame).
+        The survey (kind ``gates``: ``gate x y z`` [m], same local frame); rows with ``point`` start/finish
+        (surveyed static spots) are drawn as squares.
     """
     x, y = _col(table, "x"), _col(table, "y")
     if x is None or y is None:
         raise InputError("missing columns: plot gates needs a trajectory x, y [m]; run gate-anchor first")
     if not all(n in gates.column_names for n in ("gate", "x", "y")):
         raise InputError("the gates table needs gate, x, y [m] columns (local frame)")
+    from sportfusion.core.io import survey_points
+
+    gates, spots = survey_points(gates)
     gid = np.asarray(gates.column("gate").to_numpy(zero_copy_only=False))
     gxy = np.column_stack([_col(gates, "x"), _col(gates, "y")])
     fig = _new_figure(width, 10.0)
@@ -40,6 +44,10 @@ def gates_figure(table: pa.Table, gates: pa.Table, title: str = "", width: float
     # plan view with the fall line (x) downwards on the page
     ax.plot(y[m], x[m], "-", lw=1.0, color="tab:blue", label="trajectory")
     ax.plot(gxy[:, 1], gxy[:, 0], "^", ms=7, color="tab:red", label="surveyed gate (magnet), numbered")
+    if spots is not None:
+        ax.plot(
+            _col(spots, "y"), _col(spots, "x"), "s", ms=7, mfc="none", color="tab:orange", label="surveyed static spot"
+        )
     avoid = [np.column_stack([y[m], x[m]])]
     if "event" in table.column_names:
         ev = np.array([e == "gate" for e in table.column("event").to_pylist()])

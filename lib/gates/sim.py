@@ -83,6 +83,7 @@ class GatesConfig:
     sacrum_height: float = 0.95  # sacrum height above the snow at zero lean while skiing [m]
     height_spread: float = 0.05  # relative 1-sigma of the sacrum height at each gate
     survey_sigma: tuple[float, float] = (0.02, 0.03)  # survey noise, horizontal / vertical [m]
+    survey_spots: bool = False  # also survey the snow spots of the static postures (rows point = start/finish)
     spurious: int = 1  # magnetic disturbances beside the track [count]
     # IMU errors (after the paper's calibration)
     acc_bias: float = 0.03  # [m/s^2] 1-sigma per axis
@@ -275,7 +276,11 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     hv_s = CubicSpline(np.concatenate(([0.0], gate_s, [s_end])), np.concatenate(([0.0], hv, [0.0])))
     hfac = 1.0 + hv_s(s_all) * skiing
     height = h0 * np.cos(lean) * hfac
-    pos = snow + height[:, None] * nup
+    # standing still the body balances its centre of mass over the feet (vertically above the snow point);
+    # gliding, the slope's acceleration tilts the effective gravity onto the snow normal
+    up = (1.0 - skiing)[:, None] * np.array([0.0, 0.0, -1.0]) + skiing[:, None] * nup
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    pos = snow + height[:, None] * up
     vel = np.gradient(pos, FINE_DT, axis=0)
     acc = np.gradient(vel, FINE_DT, axis=0)
     # attitude of the sacrum sensor in the course frame -> NED
@@ -482,20 +487,29 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     # --- survey of the magnets ---------------------------------------------
     sh, sv = cfg.survey_sigma
     surveyed = magnets + rng.normal(0, 1, magnets.shape) * np.array([sh, sh, sv])
-    scol: dict[str, object] = {"gate": pa.array(np.arange(1, magnets.shape[0] + 1), pa.int32())}
+    gate_no: list[int | None] = list(range(1, magnets.shape[0] + 1))
+    turns: list[str | None] = [str(v) for v in cross["turn"]]
+    if cfg.survey_spots:  # the snow points under the feet in the static postures, surveyed like the magnets
+        spots = np.stack([tru["snow"][0], tru["snow"][-1]])
+        surveyed = np.vstack([surveyed, spots + rng.normal(0, 1, spots.shape) * np.array([sh, sh, sv])])
+        gate_no += [None, None]
+        turns += [None, None]
+    scol: dict[str, object] = {"gate": pa.array(gate_no, pa.int32())}
     if survey_wgs84:
         la, lo, hh = local_to_geodetic(surveyed[:, 0], surveyed[:, 1], surveyed[:, 2], cfg.site, cfg.azimuth_deg)
         scol.update({"lat": np.asarray(la), "lon": np.asarray(lo), "h": np.asarray(hh)})
     else:
         scol.update({"x": surveyed[:, 0], "y": surveyed[:, 1], "z": surveyed[:, 2]})
-    scol["turn"] = pa.array([str(v) for v in cross["turn"]], pa.string())
+    scol["turn"] = pa.array(turns, pa.string())
+    if cfg.survey_spots:
+        scol["point"] = pa.array(["gate"] * magnets.shape[0] + ["start", "finish"], pa.string())
     survey = pa.table(scol)
     survey_meta = sfmeta.new_meta("gates", cfg.date)
     survey_meta["frame"] = dict(frame)
     survey_meta["survey"] = {
         "sigma_h": sh,
         "sigma_v": sv,
-        "what": "buried magnet positions",
+        "what": "buried magnet positions" + (", static start and finish spots" if cfg.survey_spots else ""),
         "coordinates": "WGS84" if survey_wgs84 else "course frame",
     }
     return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, magnets, cross)

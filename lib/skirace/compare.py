@@ -514,8 +514,12 @@ def gate_positions(
 ) -> dict[int, tuple[float, float]]:
     """Gate id -> (x, y) [m] from a ``gates`` table in the runs' local frame.
 
-    Gates given as ``lat lon h`` are converted into the run's frame (its ``frame`` metadata).
+    Gates given as ``lat lon h`` are converted into the run's frame (its ``frame`` metadata); surveyed
+    static spots (rows with ``point`` start/finish) are not gates and are left out.
     """
+    from sportfusion.core.io import survey_points
+
+    gates, _ = survey_points(gates)
     names = set(gates.column_names)
     ids = gates.column("gate").to_pylist()
     if {"x", "y"} <= names:
