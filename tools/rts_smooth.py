@@ -6,10 +6,6 @@ import sys
 
 import click
 
-from sportfusion.core.schema import require_columns
-from sportfusion.skijump.hillfile import hill_from_meta
-from sportfusion.skijump.smoother import rts_smooth_table
-from sportfusion.skijump.smoother_inputs import IMU_COLUMNS, SmootherConfig, load_config
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import check_number, hill_options, load_hill_option
 
@@ -85,6 +81,11 @@ def main(
     [m/s] in the hill frame, q0..q3, roll pitch yaw [rad], bias_/scale_
     columns, std_ columns, and the constraint residuals c_q c_v_ir c_h_ir c_v_la."""
     table, meta = tool.read()
+    from sportfusion.core.schema import require_columns
+    from sportfusion.skijump.hillfile import hill_from_meta
+    from sportfusion.skijump.smoother import rts_smooth_table
+    from sportfusion.skijump.smoother_inputs import IMU_COLUMNS, SmootherConfig, load_config
+
     require_columns(table, IMU_COLUMNS, "rts-smooth (gyroscope and accelerometer)")
     the_hill = load_hill_option(hill, hill_set) or hill_from_meta(meta)
     cfg = load_config(config, SmootherConfig())

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -203,6 +202,8 @@ def order_by_time(stream: Stream) -> tuple[Stream, TimeOrder]:
     exact = np.ones(later.size, dtype=bool)
     clash = np.zeros(later.size, dtype=bool)
     out: dict[str, pa.Array] = {}
+    import pyarrow.compute as pc  # lazy: a command's --help does not pay for it
+
     for k, c in cols.items():
         a, b = c.take(pa.array(later)), c.take(pa.array(first[later]))
         va, vb = _valid(a), _valid(b)
@@ -229,6 +230,8 @@ def _valid(arr: pa.Array) -> np.ndarray:
 
 def _nan_as_null(arr: pa.Array) -> pa.Array:
     """NaN in a float array -> null (the table's 'did not sample'), so equal rows compare equal."""
+    import pyarrow.compute as pc
+
     if pa.types.is_floating(arr.type) and len(arr) and pc.any(pc.is_nan(arr)).as_py():
         return pc.if_else(pc.is_nan(arr), pa.scalar(None, arr.type), arr)
     return arr
