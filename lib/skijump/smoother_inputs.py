@@ -244,6 +244,18 @@ def session_events(
     return jumps
 
 
+def running_median(x: np.ndarray, size: int) -> np.ndarray:
+    """Centred running median over ``size`` (odd) samples, edges padded with the end values.
+
+    The same as ``scipy.ndimage.median_filter(x, size, mode="nearest")`` without importing scipy.ndimage.
+    """
+    x = np.asarray(x, float)
+    if x.size == 0:
+        return x.copy()
+    h = size // 2
+    return np.median(np.lib.stride_tricks.sliding_window_view(np.pad(x, h, mode="edge"), size), axis=1)
+
+
 def constraint_windows(
     t: np.ndarray,
     speed_t: np.ndarray,
@@ -260,12 +272,10 @@ def constraint_windows(
     landing : ndarray float (n,)
         Weight of ``c_V,LA`` in [0, 1] (0: inactive).
     """
-    from scipy.ndimage import median_filter
-
     inrun = np.zeros(t.size, bool)
     landing = np.zeros(t.size, float)
     # a running median over 9 GNSS epochs keeps single noisy velocities from splitting a rest
-    slow = median_filter(speed, size=9, mode="nearest") < cfg.rest_speed if speed.size else speed < cfg.rest_speed
+    slow = running_median(speed, 9) < cfg.rest_speed
     seg_start = t[0]
     for k, (t_to, t_td) in enumerate(jumps):
         # in-run: back from the take-off to the last rest
