@@ -48,6 +48,7 @@ from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
+from sportfusion.skijump.alignment import inrun_attitude
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
 from sportfusion.skijump.saturation import clipped_message, mag_innovation_outliers, step_noise
@@ -107,6 +108,10 @@ def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, 
         gx, gy, gz = -acc / np.linalg.norm(acc)
         roll, pitch = math.atan2(gy, gz), math.atan2(-gx, math.hypot(gy, gz))
         q = rotations.quat_from_euler(np.array(roll), np.array(pitch), np.array(math.radians(inp.azimuth_deg)))
+    if cfg.inrun_align:
+        qa = inrun_attitude(inp.t, inp.u, inp.vel, w, inp.inrun, inp.g0, x0[mdl.I_BG])
+        if qa is not None:
+            q = qa
     x0[6:10] = q
     iv = np.flatnonzero(np.isfinite(inp.vel[:, 0]))
     if iv.size:
@@ -270,19 +275,15 @@ def smooth_inputs(
     A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
     independent segments (each initialised from its own first samples); the
     results are concatenated.  The initial state comes from the rest at the start
-    (:func:`initial_state`: QUEST over the whole rest, the gyro bias from its mean
-    rate), which keeps the EKF in its linear regime with one pass (the default).
-    With ``cfg.passes > 1`` the smoother is re-run from
-    the smoothed initial state (mean only, same ``P0``) until the initial attitude
-    changes by less than ``cfg.pass_tol_deg`` [deg] or ``passes`` runs are done: this
-    re-linearises the start, where an attitude error of tens of degrees (gyro
-    biases of the Table 3 prior over a rest of seconds) leaves the EKF's linear
-    regime.  These passes cover the start of the segment: ``cfg.pass_window`` seconds,
-    extended to ``cfg.pass_after_takeoff`` seconds after the segment's first take-off
-    (the in-run is what pins the heading); one final pass then covers the whole
-    segment (a single pass when the window covers it).  Re-running only this window
-    (at most 3 times by default) costs a fraction of re-running whole segments and
-    is as accurate (``bench/bench_rts_accuracy.py --init``).
+    (:func:`initial_state`: the gyro bias from its mean rate; the attitude from the
+    in-run alignment of :mod:`sportfusion.skijump.alignment`, else QUEST over the rest).
+    ``cfg.passes`` runs cover the start of each segment, the last of them the whole
+    segment; the earlier ones cover ``cfg.pass_window`` seconds, extended to
+    ``cfg.pass_after_takeoff`` seconds after the segment's first take-off (the in-run
+    is what pins the heading), each started from the previous run's smoothed initial
+    state (mean only, same ``P0``), stopping early when the initial attitude changes by
+    less than ``cfg.pass_tol_deg`` [deg]: this re-linearises the start, where an attitude
+    error of degrees leaves the EKF's linear regime (``bench/bench_rts_accuracy.py --init``).
     """
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
@@ -320,8 +321,10 @@ def smooth_inputs(
             # re-linearisation passes over the first pass_window seconds, then the whole segment
             # (one pass: the whole segment at once, no window run first)
             win = seg if nw == seg.t.size or cfg.passes <= 1 else _slice(seg, 0, nw)
+            # runs over the start: passes in all, the last of them the whole segment
+            n_win = max(cfg.passes, 1) if win is seg else cfg.passes - 1
             done, it, change = None, 0, math.inf
-            for it in range(max(cfg.passes, 1)):
+            for it in range(n_win):
                 done = run(win, x0)
                 q_old = x0[6:10] / np.linalg.norm(x0[6:10])
                 x0 = done[1][0].copy()

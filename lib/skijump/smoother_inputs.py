@@ -95,7 +95,8 @@ class SmootherConfig:
     init_rest_gyr: float = 0.15
     init_rest_acc: float = 1.5
     max_gap: float = 1.0
-    passes: int = 3
+    passes: int = 2
+    inrun_align: bool = True  # initial attitude from the in-run (skijump.alignment), else QUEST at the rest
     pass_tol_deg: float = 0.05
     pass_window: float = 15.0
     pass_after_takeoff: float = 3.0
