@@ -68,3 +68,11 @@ def test_no_inrun_no_alignment(jump):
     still[:, 0:3] = 0.0
     vel0 = np.where(np.isfinite(inp.vel), 0.0, np.nan)
     assert inrun_attitude(inp.t, still, vel0, rest, inp.inrun, inp.g0, np.zeros(3)) is None
+
+
+def test_inconsistent_observations_are_refused(jump):
+    inp, cfg, _ = jump
+    rest = _initial_rest(inp, cfg)
+    x0, _ = initial_state(inp, SmootherConfig(inrun_align=False))
+    noisy = inp.vel + np.random.default_rng(1).normal(0.0, 3.0, inp.vel.shape)  # GNSS velocity off by metres/s
+    assert inrun_attitude(inp.t, inp.u, noisy, rest, inp.inrun, inp.g0, x0[10:13]) is None

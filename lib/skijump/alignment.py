@@ -53,6 +53,7 @@ def inrun_attitude(
     half_window: float = 0.5,
     min_epochs: int = 10,
     min_tilt_deg: float = 5.0,
+    max_loss: float = 0.005,
 ) -> np.ndarray | None:
     """The attitude ``q_BO`` at step 0 from the rest and the in-run's specific force (QUEST), or None.
 
@@ -80,6 +81,10 @@ def inrun_attitude(
     min_tilt_deg : float
         The in-run's specific force must tilt away from gravity by at least this much [deg] on some
         epoch (else the heading is not observable): else None.
+    max_loss : float
+        Largest Wahba loss ``1 - lambda_max`` [1] accepted (0.005: the vectors disagree by about
+        6 deg rms); above it the observations do not fit one attitude (a GNSS velocity that jumps,
+        a sensor that moved on the body) and the function returns None.
 
     Returns
     -------
@@ -112,6 +117,6 @@ def inrun_attitude(
         return None
     w = np.ones(len(ref))
     q, loss = quest(np.asarray(body)[None], ref_a, w / w.sum())
-    if not np.isfinite(loss[0]):
+    if not (loss[0] <= max_loss):
         return None
     return q[0]
