@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import click
-import pyarrow.compute as pc
 
 from sportfusion.core.frames import GNSS_COLUMNS, METHODS, Frame, auto_origin, gnss_to_frame, track_heights
 from sportfusion.core.schema import require_columns
@@ -107,6 +106,8 @@ def main(
             frame = Frame(frame.lat, frame.lon, frame.h, azimuth, "hill")
     out, meta = gnss_to_frame(table, meta, frame, method, the_hill.meta() if the_hill else None, geoid_offset)
     n_fix = out.num_rows - out.column("gnss_x").null_count
+    import pyarrow.compute as pc
+
     n_pos = int(pc.sum(pc.and_(pc.is_valid(table.column("lat")), pc.is_valid(table.column("lon")))).as_py() or 0)
     if n_pos > n_fix:
         tool.warn(

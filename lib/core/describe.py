@@ -7,7 +7,6 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 
 from sportfusion.core import schema
 
@@ -111,6 +110,8 @@ def render(table: pa.Table, meta: dict[str, Any], rows: int = 5) -> str:
     epoch = (meta.get("time") or {}).get("epoch_utc")
     lines.append(f"time origin (t = 0): {epoch or 'none (relative times)'}")
     if "t" in table.column_names and table.num_rows:
+        import pyarrow.compute as pc  # lazy: the commands that only need ms_to_kmh do not pay for it
+
         t = table.column("t")
         lo, hi = pc.min(t).as_py(), pc.max(t).as_py()
         lines.append(f"time span: {lo:.3f} .. {hi:.3f} s ({hi - lo:.3f} s)")
