@@ -185,12 +185,13 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
 class Smoothed:
     """Smoother output over all IMU steps (either engine).
 
-    ``cov(idx)`` returns the smoothed covariances (n, k, k) over the state indices ``idx``.
+    ``cov(idx, r0=0, r1=None)`` returns the smoothed covariances (r1 - r0, k, k) over the state
+    indices ``idx`` for the steps ``r0 .. r1 - 1`` (default all).
     """
 
     x_filt: np.ndarray
     x_smooth: np.ndarray
-    cov: Callable[[np.ndarray], np.ndarray]
+    cov: Callable[..., np.ndarray]
     var: Callable[[], np.ndarray]
     residuals: dict[str, np.ndarray]
     passes: list[int]
@@ -344,12 +345,16 @@ def smooth_inputs(
         resids.append(res)
         npass.append(it + 1)
 
-    def cov(idx: np.ndarray) -> np.ndarray:
+    def cov(idx: np.ndarray, r0: int = 0, r1: int | None = None) -> np.ndarray:
         idx = np.asarray(idx)
-        out = np.empty((inp.t.size, idx.size, idx.size))  # filled segment by segment: no list + concatenate
+        r1 = inp.t.size if r1 is None else min(r1, inp.t.size)
+        out = np.empty((r1 - r0, idx.size, idx.size))  # filled segment by segment: no list + concatenate
         i = 0
         for P in covs:
-            out[i : i + P.shape[0]] = P[:, idx][:, :, idx] if fast is None else fast.unpack_many(P, idx)
+            a, b = max(r0, i), min(r1, i + P.shape[0])  # the rows of this segment inside [r0, r1)
+            if a < b:
+                Ps = P[a - i : b - i]
+                out[a - r0 : b - r0] = Ps[:, idx][:, :, idx] if fast is None else fast.unpack_many(Ps, idx)
             i += P.shape[0]
         return out
 
@@ -427,7 +432,7 @@ def _interp_columns(
 
 def _estimate_columns(
     x: np.ndarray,
-    cov: Callable[[np.ndarray], np.ndarray] | None,
+    cov: Callable[..., np.ndarray] | None,
     inp: SkiJumpInputs,
     prefix: str = "",
     var: Callable[[], np.ndarray] | None = None,
@@ -463,23 +468,23 @@ def _estimate_columns(
         d = np.sqrt(np.maximum(var(), 0.0))
     else:
         d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
-    P = cov(np.arange(3, 10))  # (n, 7, 7): v_B and q
     for k, a in enumerate("xyz"):
         cols[f"std_{a}"] = d[:, k]
     # in blocks of rows: the Jacobians' temporaries stay small (memory per step, not per session)
     sv, se = np.empty((x.shape[0], 3)), np.empty((x.shape[0], 3))
     for r0 in range(0, x.shape[0], 8192):
         r = slice(r0, r0 + 8192)
+        P = cov(np.arange(3, 10), r0, r0 + 8192)  # (m, 7, 7): v_B and q, this block only
         # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
         dm = mdl.dm_dq(q[r])  # (m, 4, 3, 3)
         Jv = np.einsum("ij,nkj->nik", mno, M[r])  # (m,3,3)  M_NO M^T
         Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[r, 3:6])  # (m,3,4)  M_NO dM_k^T v
         J = np.concatenate([Jv, Jq], axis=2)
-        Cv = np.einsum("nij,njk,nlk->nil", J, P[r], J, optimize=True)
+        Cv = np.einsum("nij,njk,nlk->nil", J, P, J, optimize=True)
         sv[r] = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
         # Euler angles: analytic Jacobian w.r.t. q
         Je = euler_jacobian(q[r])
-        Ce = np.einsum("nij,njk,nlk->nil", Je, P[r, 3:7, 3:7], Je, optimize=True)
+        Ce = np.einsum("nij,njk,nlk->nil", Je, P[:, 3:7, 3:7], Je, optimize=True)
         se[r] = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
     for k, a in enumerate("xyz"):
         cols[f"std_v{a}"] = sv[:, k]
