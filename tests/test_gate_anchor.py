@@ -181,6 +181,11 @@ def test_surveyed_static_spots_anchor_the_standing_athlete():
     out0, meta0, _ = gate_anchor_table(sess, s.meta, gates_only, s.survey_meta)
     assert meta0["gate_anchor"]["static_spots"] == []
     assert max(_standing_errors(s, out0)) > max(start, finish)
+    # the same survey in WGS84 (lat lon h): the spots are converted into the session's frame like the gates
+    geo = simulate_gates(GatesConfig(seed=23, survey_spots=True), survey_wgs84=True)
+    outg, _, msg = gate_anchor_table(sess, s.meta, geo.survey, geo.survey_meta)
+    assert "start, finish" in msg
+    assert max(_standing_errors(s, outg)) < 0.15
 
 
 def test_survey_points_split_and_refusals():
