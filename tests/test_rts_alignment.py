@@ -76,3 +76,81 @@ def test_inconsistent_observations_are_refused(jump):
     x0, _ = initial_state(inp, SmootherConfig(inrun_align=False))
     noisy = inp.vel + np.random.default_rng(1).normal(0.0, 3.0, inp.vel.shape)  # GNSS velocity off by metres/s
     assert inrun_attitude(inp.t, inp.u, noisy, rest, inp.inrun, inp.g0, x0[10:13]) is None
+
+
+def test_shift_gnss_moves_fixes_to_the_time_they_describe():
+    from sportfusion.skijump.alignment import shift_gnss
+
+    t = np.arange(0.0, 10.0, 0.01)
+    v = np.array([20.0, 1.0, -3.0])
+    a = np.array([0.5, 0.0, 0.2])
+    truth_p = t[:, None] * v + 0.5 * t[:, None] ** 2 * a
+    truth_v = v + t[:, None] * a
+    tau = 0.0937  # late stamps: the fix stamped t holds the state at t - tau
+    fix = np.zeros(t.size, bool)
+    fix[50::10] = True
+    pos = np.full((t.size, 3), np.nan)
+    vel = np.full((t.size, 3), np.nan)
+    pos[fix] = (t[fix] - tau)[:, None] * v + 0.5 * (t[fix] - tau)[:, None] ** 2 * a
+    vel[fix] = v + (t[fix] - tau)[:, None] * a
+    p2, v2 = shift_gnss(t, pos, vel, vel, tau)
+    got = np.isfinite(p2[:, 0])
+    assert got.sum() == fix.sum()
+    np.testing.assert_allclose(p2[got], truth_p[got], atol=2e-3)  # second order: a rem^2 / 2 with rem <= 5 ms
+    np.testing.assert_allclose(v2[got], truth_v[got], atol=1e-9)
+
+
+def test_lever_arm_removal_inverts_the_antenna_model():
+    from sportfusion.core import rotations
+    from sportfusion.skijump.smoother import _remove_lever_arm
+
+    rng = np.random.default_rng(3)
+    n = 50
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w = rng.normal(0, 1.0, (n, 3))
+    lever = np.array([0.1, 0.3, -0.5])
+    r = rng.normal(0, 10, (n, 3))
+    v = rng.normal(0, 5, (n, 3))
+    az = 312.6
+    # the simulator's antenna (an independent formula: rotations.to_ned of body vectors)
+    r_ant = r + rotations.ned_to_local(rotations.to_ned(q, np.broadcast_to(lever, (n, 3))), az)
+    v_ant = v + rotations.to_ned(q, np.cross(w, lever))
+
+    class Seg:
+        pass
+
+    seg = Seg()
+    seg.pos, seg.vel, seg.azimuth_deg = r_ant.copy(), v_ant.copy(), az
+    seg.u = np.hstack([w + 0.01, np.zeros((n, 3))])
+    xs = np.zeros((n, 22))
+    xs[:, 6:10] = q
+    xs[:, 10:13] = 0.01  # gyro bias: the rate is gyro minus bias
+    _remove_lever_arm(seg, xs, lever)
+    np.testing.assert_allclose(seg.pos, r, atol=1e-12)
+    np.testing.assert_allclose(seg.vel, v, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_gnss_latency_found_and_removed():
+    from sportfusion.evaluate import errors
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
+    from sportfusion.skijump.smoother import rts_smooth_table
+
+    hill = load_hill(HILL)
+    res = {}
+    for lat in (0.0, 0.12):
+        sim = simulate_skijump(hill, SkiJumpConfig(seed=11, gnss_latency=lat))
+        tt = sim.truth_meta["skijump"]["times"]
+        kw = {"takeoff": [tt["takeoff"]], "touchdown": [tt["touchdown"]]}
+        for name, cfg in (("on", SmootherConfig()), ("off", SmootherConfig(estimate_latency=False))):
+            est, meta, _ = rts_smooth_table(sim.session, sim.session_meta, hill, cfg, **kw)
+            e = errors(est, sim.truth, sim.session_meta["frame"]["azimuth_deg"])[2]
+            res[lat, name] = (
+                np.sqrt(np.nanmean(e["x"] ** 2 + e["y"] ** 2 + e["z"] ** 2)),
+                meta["rts"]["gnss_latency_s"][0],
+            )
+    assert abs(res[0.12, "on"][1] - 0.12) < 0.01
+    assert res[0.0, "on"][1] is None or abs(res[0.0, "on"][1]) < 0.02  # below the threshold: nothing moved
+    assert res[0.12, "on"][0] < 0.2 < res[0.12, "off"][0]  # metres of along-track error without the estimate
+    assert res[0.0, "on"][0] < 1.1 * res[0.0, "off"][0] + 1e-3  # no latency: as before

@@ -7,7 +7,7 @@ import sys
 import click
 
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import check_number, hill_options, load_hill_option
+from sportfusion.tools._options import check_number, hill_options, load_hill_option, parse_floats
 
 
 def _times(text: str | None, option: str) -> list[float] | None:
@@ -57,6 +57,13 @@ def _times(text: str | None, option: str) -> list[float] | None:
     help="Drop the in-run and landing constraints (eqs 32-34) [flag]; c_q stays.",
 )
 @click.option("--filtered", is_flag=True, help="Also write the forward-only EKF estimates as filt_ columns [flag].")
+@click.option(
+    "--lever-arm",
+    metavar="X,Y,Z",
+    default=None,
+    help="IMU -> GNSS antenna in the IMU's body frame [m] (a logger on the back, the phone on the arm); "
+    "default 0,0,0 or the --config file's lever_arm.",
+)
 def main(
     tool: Tool,
     hill: str | None,
@@ -66,6 +73,7 @@ def main(
     config: str | None,
     no_hill_constraints: bool,
     filtered: bool,
+    lever_arm: str | None,
 ) -> None:
     """Reconstruct a ski jumper's trajectory with the extended Rauch-Tung-Striebel
     smoother of the ski-jumping paper: an INS model driven by the IMU (100 Hz),
@@ -77,7 +85,10 @@ def main(
     take-off/touch-down events (detect-events --kind jump, or --takeoff and
     --touchdown).  A session without events is refused unless
     --no-hill-constraints is given: placed from speed alone the constraints
-    make the attitude several times worse than no answer.  Output: every input column plus x y z [m] and vx vy vz
+    make the attitude several times worse than no answer.  The initial attitude
+    comes from the in-run (in-motion alignment); a GNSS time-stamp latency is
+    estimated from the first pass and removed when it is at least 0.02 s; a
+    known lever arm to the antenna (--lever-arm) is taken off the fixes.  Output: every input column plus x y z [m] and vx vy vz
     [m/s] in the hill frame, q0..q3, roll pitch yaw [rad], bias_/scale_
     columns, std_ columns, and the constraint residuals c_q c_v_ir c_h_ir c_v_la."""
     table, meta = tool.read()
@@ -91,6 +102,8 @@ def main(
     cfg = load_config(config, SmootherConfig())
     if no_hill_constraints:
         cfg.hill_constraints = False
+    if lever_arm is not None:
+        cfg.lever_arm = tuple(parse_floats(lever_arm, 3, "--lever-arm"))  # type: ignore[assignment]
     bar = None
 
     def on_start(total: int) -> None:

@@ -86,6 +86,13 @@ DEFAULT_HILL = "oberstdorf_hs106"
     metavar="X,Y,Z",
     help="GNSS antenna position relative to the IMU in the sensor (body) frame [m].",
 )
+@click.option(
+    "--gnss-latency",
+    default=0.0,
+    show_default=True,
+    type=click.FloatRange(0, 1),
+    help="GNSS time stamps late by this much: the fix stamped t describes t - latency [s].",
+)
 @click.option("--no-noise", is_flag=True, help="Sensors without biases or noise (the truth values), for tests.")
 @click.option(
     "--video",
@@ -128,6 +135,7 @@ def main(
     height_error: str | None,
     outages: tuple[str, ...],
     lever_arm: str,
+    gnss_latency: float,
     no_noise: bool,
     video_path: str | None,
     video_fps: float,
@@ -164,6 +172,7 @@ def main(
         height_error=tuple(parse_floats(height_error, 2, "--height-error")) if height_error else None,  # type: ignore[arg-type]
         outages=[tuple(parse_floats(o, 2, "--outage")) for o in outages],  # type: ignore[misc]
         lever_arm=tuple(parse_floats(lever_arm, 3, "--lever-arm")),  # type: ignore[arg-type]
+        gnss_latency=gnss_latency,
         noise=not no_noise,
     )
     sim = simulate_skijump(the_hill, cfg)

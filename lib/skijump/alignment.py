@@ -120,3 +120,84 @@ def inrun_attitude(
     if not (loss[0] <= max_loss):
         return None
     return q[0]
+
+
+def gnss_latency(
+    t: np.ndarray,
+    u: np.ndarray,
+    x: np.ndarray,
+    vel: np.ndarray,
+    g0: float,
+    span: tuple[float, float],
+    max_latency: float = 0.3,
+    step: float = 0.005,
+) -> float | None:
+    """The GNSS time-stamp latency [s] (the fix stamped t describes t - latency) from a smoothed pass.
+
+    The accelerometer, rotated into NED by the smoothed attitude ``x[:, 6:10]`` (``q_BO``) and corrected by
+    the smoothed bias ``x[:, 13:16]``, plus gravity, is integrated to a velocity at the IMU's own time;
+    the GNSS velocity is that curve delayed.  Over ``span`` (t0, t1) [s] -- the in-run, take-off and
+    flight, where the velocity changes fast -- the delay minimising the misfit (after removing a constant
+    and a linear drift per axis: the integration constant and a residual bias) is searched on a ``step``
+    grid in ``[-max_latency, max_latency]`` and refined by a parabola.  Returns None with fewer than 20
+    GNSS velocities in the span or a minimum on the grid's edge (not a delay the data show).
+    """
+    from sportfusion.core.rotations import dcm_from_quat
+
+    sel = (t >= span[0]) & (t <= span[1])
+    k = np.flatnonzero(sel)
+    gk = k[np.isfinite(vel[k, 0])]
+    if gk.size < 20 or k.size < 10:
+        return None
+    ts = t[k]
+    m = dcm_from_quat(x[k, 6:10])  # NED -> body
+    a = np.einsum("nji,nj->ni", m, u[k, 3:6] - x[k, 13:16]) + np.array([0.0, 0.0, g0])
+    v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None], axis=0)])
+    tg, vg = t[gk], vel[gk]
+    basis = np.column_stack([np.ones(tg.size), tg - tg.mean()])
+    proj = basis @ np.linalg.pinv(basis)  # removes a constant and a drift per axis
+
+    def cost(tau: float) -> float:
+        vi = np.column_stack([np.interp(tg - tau, ts, v_imu[:, j]) for j in range(3)])
+        r = vg - vi
+        r = r - proj @ r
+        return float(np.sum(r * r))
+
+    grid = np.arange(-max_latency, max_latency + step / 2, step)
+    c = np.array([cost(tau) for tau in grid])
+    i = int(np.argmin(c))
+    if i == 0 or i == grid.size - 1:
+        return None
+    den = c[i - 1] - 2 * c[i] + c[i + 1]
+    off = 0.5 * (c[i - 1] - c[i + 1]) / den if den > 0 else 0.0
+    return float(grid[i] + off * step)
+
+
+def shift_gnss(
+    t: np.ndarray, pos: np.ndarray, vel_hill: np.ndarray, vel: np.ndarray, latency: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """GNSS position and velocity per step moved ``latency`` [s] earlier (to the time they describe).
+
+    Each fix goes to the step nearest its true time and is carried over the remaining fraction of a step
+    along its own velocity (position) and the GNSS velocity's change (velocity).  ``pos`` [m] and
+    ``vel_hill`` [m/s] are in the hill frame, ``vel`` in NED [m/s]; NaN where no fix; fixes that would
+    fall before the first step are dropped.
+    """
+    n = t.size
+    dt = float(np.median(np.diff(t))) if n > 1 else 1.0
+    s = int(round(latency / dt))
+    rem = latency - s * dt  # the part of the latency left after moving by s steps [s]
+    gp = np.flatnonzero(np.isfinite(pos[:, 0]))
+    gv = np.flatnonzero(np.isfinite(vel[:, 0]))
+    out_p, out_v = np.full_like(pos, np.nan), np.full_like(vel, np.nan)
+    for idx, src, out, rate in ((gp, pos, out_p, vel_hill), (gv, vel, out_v, None)):
+        if idx.size == 0:
+            continue
+        if rate is None:  # the velocity's change per second between fixes
+            d = np.gradient(src[idx], t[idx], axis=0) if idx.size > 1 else np.zeros((1, 3))
+        else:
+            d = np.where(np.isfinite(rate[idx]), rate[idx], 0.0)
+        dst = idx - s
+        ok = (dst >= 0) & (dst < n)
+        out[dst[ok]] = src[idx[ok]] + d[ok] * rem
+    return out_p, out_v

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -48,7 +48,7 @@ from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
-from sportfusion.skijump.alignment import inrun_attitude
+from sportfusion.skijump.alignment import gnss_latency, inrun_attitude, shift_gnss
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
 from sportfusion.skijump.saturation import clipped_message, mag_innovation_outliers, step_noise
@@ -195,6 +195,7 @@ class Smoothed:
     var: Callable[[], np.ndarray]
     residuals: dict[str, np.ndarray]
     passes: list[int]
+    gnss_latency: list[float | None] = field(default_factory=list)  # per segment [s] (None: not estimated)
 
 
 def _fast_engine():  # noqa: ANN202
@@ -256,6 +257,39 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
     return xf, xs, Pp, res
 
 
+def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
+    """Estimate the GNSS latency from a smoothed pass over the in-run and take-off, and move the segment's
+    GNSS fixes to the time they describe (in place: new arrays on ``seg``) when it is at least ``least``
+    [s] (smaller estimates are within the estimate's own noise: about 0.01 s on simulated jumps).
+    Returns the estimate [s] (None where the data do not show one)."""
+    n = xs.shape[0]
+    span = (max(seg.t[0], t_takeoff - 6.0), min(t_end, t_takeoff + 4.0))
+    tau = gnss_latency(seg.t[:n], seg.u[:n], xs, seg.vel[:n], seg.g0, span)
+    if tau is None or abs(tau) < least:
+        return tau
+    vel_hill = rotations.ned_to_local(seg.vel, seg.azimuth_deg)
+    seg.pos, seg.vel = shift_gnss(seg.t, seg.pos, vel_hill, seg.vel, tau)
+    return tau
+
+
+def _unit_quat(x: np.ndarray) -> np.ndarray:
+    x = x.copy()
+    x[6:10] /= np.linalg.norm(x[6:10])
+    return x
+
+
+def _remove_lever_arm(seg: SkiJumpInputs, xs: np.ndarray, lever: np.ndarray) -> None:
+    """GNSS fixes moved from the antenna to the IMU: ``r_IMU = r_ant - M_BO^T l`` (hill frame) and
+    ``v_IMU = v_ant - M_BO^T (omega x l)`` (NED) with the smoothed attitude and bias-corrected rate of
+    ``xs`` (the lever arm ``l`` [m] in the body frame, IMU -> antenna).  New arrays on ``seg``."""
+    m = m_bo(xs[:, 6:10])  # NED -> body, per step
+    arm_ned = np.einsum("nji,j->ni", m, lever)
+    omega = seg.u[:, 0:3] - xs[:, mdl.I_BG]
+    rot_ned = np.einsum("nji,nj->ni", m, np.cross(omega, lever))
+    seg.pos = seg.pos - rotations.ned_to_local(arm_ned, seg.azimuth_deg)
+    seg.vel = seg.vel - rot_ned
+
+
 def smooth_inputs(
     inp: SkiJumpInputs,
     hill: Hill | None,
@@ -289,8 +323,9 @@ def smooth_inputs(
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
         raise InputError("engine numba requested but numba is not installed; expected pip install numba")
-    xfs, xss, covs, resids, npass = [], [], [], [], []
+    xfs, xss, covs, resids, npass, lat = [], [], [], [], [], []
     for a, b in segments(inp.t, cfg.max_gap):
+        lat.append(None)
         seg = _slice(inp, a, b)
         if b - a < 2 or not np.isfinite(seg.pos[:, 0]).any():
             raise InputError(
@@ -327,6 +362,9 @@ def smooth_inputs(
             done, it, change = None, 0, math.inf
             for it in range(n_win):
                 done = run(win, x0)
+                if it == 0 and cfg.estimate_latency and cfg.passes > 1 and tos:
+                    lat[-1] = _correct_latency(seg, done[1][: win.t.size], min(tos), win.t[-1], cfg.latency_min)
+                    win = seg if win is seg else _slice(seg, 0, nw)
                 q_old = x0[6:10] / np.linalg.norm(x0[6:10])
                 x0 = done[1][0].copy()
                 x0[6:10] /= np.linalg.norm(x0[6:10])
@@ -335,6 +373,20 @@ def smooth_inputs(
                     break
             if win is not seg:
                 done = run(seg, x0)
+                it += 1
+            if lat[-1] is not None and abs(lat[-1]) >= cfg.latency_min:
+                # a latency was found and applied: the first pass had absorbed part of it, so estimate what is
+                # left on the corrected pass and run once more (only sessions with a latency pay for it)
+                more = _correct_latency(seg, done[1], min(tos), seg.t[-1], 0.0)
+                if more is not None:
+                    lat[-1] += more
+                    done = run(seg, _unit_quat(done[1][0]))
+                    it += 1
+            if any(cfg.lever_arm):
+                # the antenna is not at the IMU: take the lever arm off the fixes with the smoothed attitude and
+                # rates (the measurement model linearised about the last pass), and run once more
+                _remove_lever_arm(seg, done[1], np.asarray(cfg.lever_arm, float))
+                done = run(seg, _unit_quat(done[1][0]))
                 it += 1
             xf, xs, P, res = done
         except CovarianceError as exc:
@@ -376,7 +428,7 @@ def smooth_inputs(
         for k, v in r.items():
             out[k][i : i + xf.shape[0]] = v
         i += xf.shape[0]
-    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, var, out, npass)
+    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, var, out, npass, lat)
 
 
 def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
@@ -598,6 +650,7 @@ def rts_smooth_table(
         "jumps": [{"takeoff": a, "touchdown": b} for a, b in inp.jumps],
         "gravity": inp.g0,
         "passes": res.passes,
+        "gnss_latency_s": res.gnss_latency,
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }

@@ -96,6 +96,9 @@ class SmootherConfig:
     init_rest_acc: float = 1.5
     max_gap: float = 1.0
     passes: int = 2
+    lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # IMU -> GNSS antenna, body frame [m]
+    estimate_latency: bool = True  # GNSS time-stamp latency from the first pass (skijump.alignment)
+    latency_min: float = 0.02  # smaller latency estimates are not applied (the estimate's noise: ~0.01 s)
     inrun_align: bool = True  # initial attitude from the in-run (skijump.alignment), else QUEST at the rest
     pass_tol_deg: float = 0.05
     pass_window: float = 15.0

@@ -22,7 +22,7 @@ white noises have the Table 4-5 sigmas (gyro 0.0175 rad/s, accelerometer
 velocity 0.1/0.1/0.3 m/s in NED).  IMU and magnetometer sample at 100 Hz, the
 GNSS at 10 Hz on every tenth IMU instant.  Options: a slowly varying GNSS
 height error (first-order Gauss-Markov), GNSS outages, a lever arm from the
-IMU to the GNSS antenna (body frame).  The magnetic reference field comes from
+IMU to the GNSS antenna (body frame), a GNSS latency (the fix stamped t describes t - latency).  The magnetic reference field comes from
 the World Magnetic Model at the take-off edge and the start date (or the hill
 file's field), gravity from the hill file's g0 (or WGS84 normal gravity).
 """
@@ -78,6 +78,7 @@ class SkiJumpConfig:
     height_error: tuple[float, float] | None = None  # Gauss-Markov (sigma [m], correlation time [s])
     outages: list[tuple[float, float]] = field(default_factory=list)  # (start [s], end [s])
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # IMU -> antenna, body frame [m]
+    gnss_latency: float = 0.0  # GNSS time stamps late by this much [s] (the fix describes t - latency)
     geoid_separation: float = 47.9  # written into the NMEA log [m]
     noise: bool = True  # False: sensors without biases and noise (truth values)
 
@@ -266,6 +267,12 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     lever = np.asarray(cfg.lever_arm, dtype=float)
     r_ant = mt.r[ig] + rotations.ned_to_local(rotations.to_ned(q[ig], np.broadcast_to(lever, (ig.size, 3))), az)
     v_ant = v_o[ig] + rotations.to_ned(q[ig], np.cross(w_b[ig], lever))
+    if cfg.gnss_latency:  # the receiver stamps at t what the antenna did at t - latency
+        r_all = mt.r + rotations.ned_to_local(rotations.to_ned(q, np.broadcast_to(lever, (n, 3))), az)
+        v_all = v_o + rotations.to_ned(q, np.cross(w_b, lever))
+        tl = mt.t[ig] - cfg.gnss_latency
+        r_ant = np.column_stack([np.interp(tl, mt.t, r_all[:, j]) for j in range(3)])
+        v_ant = np.column_stack([np.interp(tl, mt.t, v_all[:, j]) for j in range(3)])
     pos = r_ant + noise["pos"]
     pos[:, 2] += height
     vel = v_ant + noise["vel"]
