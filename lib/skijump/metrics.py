@@ -58,7 +58,7 @@ def session_jumps(table: pa.Table, meta: dict[str, Any]) -> list[tuple[float, fl
     """(take-off, touch-down) times [s] from the ``event`` column, else the rts-smooth metadata."""
     from sportfusion.skijump.smoother_inputs import session_events
 
-    jumps = session_events(table, None, None)
+    jumps = session_events(table, None, None, meta)
     if not jumps and meta.get("rts", {}).get("jumps"):
         jumps = [(float(j["takeoff"]), float(j["touchdown"])) for j in meta["rts"]["jumps"]]
     return jumps

@@ -220,17 +220,46 @@ def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np
     return out
 
 
+def _exact_times(rows: list[float], name: str, meta: dict[str, Any] | None, tol: float) -> list[float]:
+    """Event-row times replaced by the detector's exact times from the metadata's ``events`` list, where
+    one lies within ``tol`` [s] of the row (the row is the nearest sample to it)."""
+    exact = [
+        float(j[name])
+        for e in (meta or {}).get("events") or []
+        if isinstance(e, dict) and e.get("kind") == "jump"
+        for j in e.get("jumps") or []
+        if isinstance(j, dict) and isinstance(j.get(name), int | float)
+    ]
+    if not exact:
+        return rows
+    ex = np.asarray(exact)
+    out = []
+    for r in rows:
+        i = int(np.argmin(np.abs(ex - r)))
+        out.append(float(ex[i]) if abs(ex[i] - r) <= tol else r)
+    return out
+
+
 def session_events(
-    table: pa.Table, takeoff: list[float] | None, touchdown: list[float] | None
+    table: pa.Table,
+    takeoff: list[float] | None,
+    touchdown: list[float] | None,
+    meta: dict[str, Any] | None = None,
 ) -> list[tuple[float, float]]:
-    """(take-off, touch-down) pairs [s]: the given lists, else the ``event`` column's rows (validated)."""
+    """(take-off, touch-down) pairs [s]: the given lists, else the ``event`` column's rows (validated).
+
+    Event rows sit on samples; where the metadata carries the detector's exact time of an event (its
+    ``events`` list, within half a sample step of the row), that time is used.
+    """
     if takeoff is not None or touchdown is not None:
         tos, tds = sorted(takeoff or []), sorted(touchdown or [])
     elif "event" in table.column_names:
         t = schema.floats(table, "t")
         ev = np.asarray(table.column("event").to_pylist(), dtype=object)
-        tos = sorted(t[ev == "takeoff"].tolist())
-        tds = sorted(t[ev == "touchdown"].tolist())
+        step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        tol = 0.5 * step + 1e-9
+        tos = sorted(_exact_times(t[ev == "takeoff"].tolist(), "takeoff", meta, tol))
+        tds = sorted(_exact_times(t[ev == "touchdown"].tolist(), "touchdown", meta, tol))
     else:
         tos, tds = [], []
     if len(tos) != len(tds):
@@ -397,7 +426,7 @@ def session_inputs(
     if okm.sum() > 10:
         disturbed[okm] = mag_disturbed(t[okm], mag[okm], None)
         mag[disturbed] = np.nan
-    jumps = session_events(table, takeoff, touchdown)
+    jumps = session_events(table, takeoff, touchdown, meta)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
             if not t[0] <= te <= t[-1]:
