@@ -5,9 +5,11 @@
 * a GNSS antenna away from the IMU: lever arm (0.1, 0.3, -0.5) m in the body frame (a logger on the
   back or helmet, the phone on the arm);
 * a slowly varying GNSS height error: first-order Gauss-Markov, 0.8 m, 30 s;
-* GNSS latency: the fix stamped t describes t - 0.1 s.
+* GNSS latency: the fix stamped t describes t - 0.1 s;
+* wind in flight: 1 m/s headwind with 1.5 m/s sinusoidal gusts (period 0.8-2.5 s).
 
-Not simulated (yet): wind gusts in flight and a landing impact with the sensor still above the snow.
+The simulator's landing already has the sensor (on the arm) decimetres above the snow at the skis'
+touch-down and an impact pulse that sets it onto the slope.
 
 Configurations, each on the same jumps:
 
@@ -35,7 +37,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-SIM = {"lever_arm": (0.1, 0.3, -0.5), "height_error": (0.8, 30.0), "gnss_latency": 0.1}
+SIM = {"lever_arm": (0.1, 0.3, -0.5), "height_error": (0.8, 30.0), "gnss_latency": 0.1, "wind": (1.0, 1.5)}
 PAPER_3D = math.sqrt(0.159**2 + 0.123**2 + 0.109**2)  # Table 6 x, y, z medians as one 3-D figure
 TARGET = {"pos3": 0.12, "jump": 0.25}
 CONFIGS = ("previous", "ours", "ours, no lever")

@@ -154,3 +154,24 @@ def test_gnss_latency_found_and_removed():
     assert res[0.0, "on"][1] is None or abs(res[0.0, "on"][1]) < 0.02  # below the threshold: nothing moved
     assert res[0.12, "on"][0] < 0.2 < res[0.12, "off"][0]  # metres of along-track error without the estimate
     assert res[0.0, "on"][0] < 1.1 * res[0.0, "off"][0] + 1e-3  # no latency: as before
+
+
+def test_simulated_wind_changes_the_flight_not_the_planned_length():
+    from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
+
+    hill = load_hill(HILL)
+    calm = simulate_skijump(hill, SkiJumpConfig(seed=5))
+    windy = simulate_skijump(hill, SkiJumpConfig(seed=5, wind=(3.0, 1.5)))
+    # the planner finds the lift for the seed's distance with the wind included
+    assert abs(windy.truth_meta["jump_length"] - calm.truth_meta["jump_length"]) < 0.3
+    assert windy.truth_meta["skijump"]["motion"]["cla_flight"] != calm.truth_meta["skijump"]["motion"]["cla_flight"]
+
+    # the headwind's gusts show in the flight's specific force (the IMU measures them)
+    def flight_wiggle(sim):  # |a| in mid-flight about its cubic trend [m/s^2]: the gusts' share
+        tt = sim.truth_meta["skijump"]["times"]
+        t = floats(sim.truth, "t")
+        fl = (t > tt["takeoff"] + 0.8) & (t < tt["touchdown"] - 0.3)
+        a = np.linalg.norm(np.column_stack([floats(sim.truth, f"true_a{c}") for c in "xyz"])[fl], axis=1)
+        return float(np.std(a - np.polyval(np.polyfit(t[fl], a, 3), t[fl])))
+
+    assert flight_wiggle(windy) > 3 * flight_wiggle(calm)

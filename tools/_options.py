@@ -148,6 +148,7 @@ FLOAT_LISTS: dict[str, list[tuple[float, float, str]]] = {
     "--mag-ref": [(-200, 200, "uT")] * 3,
     "--lever-arm": [(-10, 10, "m")] * 3,
     "--height-error": [(0, 100, "m"), (0, 1e5, "s")],
+    "--wind": [(-10, 10, "m/s"), (0, 10, "m/s")],
     "--outage": [(-1e6, 1e7, "s")] * 2,
     "--video-camera": [(-100, 500, "m"), (-500, 500, "m"), (0, 200, "m")],
 }

@@ -93,6 +93,13 @@ DEFAULT_HILL = "oberstdorf_hs106"
     type=click.FloatRange(0, 1),
     help="GNSS time stamps late by this much: the fix stamped t describes t - latency [s].",
 )
+@click.option(
+    "--wind",
+    metavar="HEAD,GUST",
+    default=None,
+    help="Wind in flight: headwind along the hill axis (negative: tailwind) and the amplitude of its "
+    "sinusoidal gusts [m/s, m/s]; the lift is planned with it, so the jump keeps its length.",
+)
 @click.option("--no-noise", is_flag=True, help="Sensors without biases or noise (the truth values), for tests.")
 @click.option(
     "--video",
@@ -136,6 +143,7 @@ def main(
     outages: tuple[str, ...],
     lever_arm: str,
     gnss_latency: float,
+    wind: str | None,
     no_noise: bool,
     video_path: str | None,
     video_fps: float,
@@ -173,6 +181,7 @@ def main(
         outages=[tuple(parse_floats(o, 2, "--outage")) for o in outages],  # type: ignore[misc]
         lever_arm=tuple(parse_floats(lever_arm, 3, "--lever-arm")),  # type: ignore[arg-type]
         gnss_latency=gnss_latency,
+        wind=tuple(parse_floats(wind, 2, "--wind")) if wind else None,  # type: ignore[arg-type]
         noise=not no_noise,
     )
     sim = simulate_skijump(the_hill, cfg)

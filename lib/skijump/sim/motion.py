@@ -17,8 +17,8 @@ Phases
    after the edge) lifts the jumper; aerodynamic drag and lift areas change from
    the in-run crouch to the flight position.
 4. Flight as a point mass with gravity, drag ``-rho/(2m) C_D A |v| v``, lift
-   ``rho/(2m) C_L A |v|^2`` perpendicular to ``v`` in the vertical plane, and a
-   small lateral (wind) force.
+   ``rho/(2m) C_L A |v|^2`` perpendicular to ``v`` in the vertical plane (``v`` relative to the air:
+   an optional headwind ``wind`` with sinusoidal gusts ``gust``), and a small lateral force.
 5. Touch-down: the skis touch while the sensor (on the arm) is still some
    decimetres above the landing profile; the landing impact -- a pulse of
    normal deceleration peaking ``impact_peak`` after the touch-down (paper
@@ -91,6 +91,10 @@ class MotionParams:
     side_acc: float = 0.2  # lateral force amplitude in flight [m/s^2]
     side_period: float = 2.5  # [s]
     side_phase: float = 0.0  # [rad]
+    wind: float = 0.0  # headwind along the hill axis, blowing against the jump [m/s]
+    gust: float = 0.0  # gust amplitude on top of it [m/s]
+    gust_period: float = 1.5  # [s]
+    gust_phase: float = 0.0  # [rad]
     impact_peak: float = 0.05  # the landing impact's peak after the touch-down [s]
     impact_decay: float = 0.15  # its decay time [s]
     settle_time: float = 0.3  # span of the small corrections of the settling [s]
@@ -264,6 +268,8 @@ class JumpMotion:
         p = self.p
         cda = p.cda_inrun + (p.cda_flight - p.cda_inrun) * smoothstep_s(tau / p.drag_time)
         cl = cla * smoothstep_s(tau / p.lift_time)
+        # the air's velocity relative to the jumper: the headwind (and its gusts) adds to the forward speed
+        vx = vx + p.wind + p.gust * math.sin(2 * math.pi * tau / p.gust_period + p.gust_phase)
         v2 = vx * vx + vy * vy + vz * vz
         speed = math.sqrt(v2)
         k = p.rho / (2 * p.mass)

@@ -22,7 +22,7 @@ white noises have the Table 4-5 sigmas (gyro 0.0175 rad/s, accelerometer
 velocity 0.1/0.1/0.3 m/s in NED).  IMU and magnetometer sample at 100 Hz, the
 GNSS at 10 Hz on every tenth IMU instant.  Options: a slowly varying GNSS
 height error (first-order Gauss-Markov), GNSS outages, a lever arm from the
-IMU to the GNSS antenna (body frame), a GNSS latency (the fix stamped t describes t - latency).  The magnetic reference field comes from
+IMU to the GNSS antenna (body frame), a GNSS latency (the fix stamped t describes t - latency), a headwind with gusts in flight.  The magnetic reference field comes from
 the World Magnetic Model at the take-off edge and the start date (or the hill
 file's field), gravity from the hill file's g0 (or WGS84 normal gravity).
 """
@@ -79,6 +79,7 @@ class SkiJumpConfig:
     outages: list[tuple[float, float]] = field(default_factory=list)  # (start [s], end [s])
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # IMU -> antenna, body frame [m]
     gnss_latency: float = 0.0  # GNSS time stamps late by this much [s] (the fix describes t - latency)
+    wind: tuple[float, float] | None = None  # headwind [m/s] and gust amplitude [m/s] in flight
     geoid_separation: float = 47.9  # written into the NMEA log [m]
     noise: bool = True  # False: sensors without biases and noise (truth values)
 
@@ -225,6 +226,10 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     epoch = sfmeta.parse_epoch(cfg.start)
     rng = np.random.default_rng(cfg.seed)
     p = draw_motion(rng, cfg.rest_before, cfg.rest_after, air_density(frame.h))
+    if cfg.wind is not None:  # its own generator: the other draws of the seed stay as they are
+        wr = np.random.default_rng([cfg.seed, 7])
+        p.wind, p.gust = float(cfg.wind[0]), float(cfg.wind[1])
+        p.gust_period, p.gust_phase = float(wr.uniform(0.8, 2.5)), float(wr.uniform(0.0, 2 * np.pi))
     w = hill.profile.cert.w
     distance = float(cfg.distance) if cfg.distance is not None else float(w * rng.uniform(0.9, 1.04))
     gate, motion = plan_jump(hill, p, distance, cfg.gate)
