@@ -21,7 +21,8 @@ this one with to round-off): eqs 10-21 with the model of
   the row loops vectorise;
 * positive definiteness is checked by finite positive variances after every
   update and prediction, and by the Cholesky factorisation of every
-  ``P_{k+1|k}`` in the backward pass (the reference path factorises every ``P``).
+  ``P_{k+1|k}`` in the backward pass (the reference path factorises every ``P``);
+* work arrays (and the backward pass's Cholesky factor) are allocated once per call, not per step.
 
 The kernels compile once and are cached on disk (``cache=True``); the first call
 in a fresh environment costs the compile time (tens of seconds), later
@@ -125,29 +126,35 @@ def _f(x, u, g0, mno, out, M):
 
 
 @njit(cache=True)
-def _rk4(x, u0, u1, dt, g0, mno, out, M):
-    um = 0.5 * (u0 + u1)
-    k1 = np.empty(N)
-    k2 = np.empty(N)
-    k3 = np.empty(N)
-    k4 = np.empty(N)
+def _rk4(x, u0, u1, dt, g0, mno, out, M, wk, um):
+    """One RK4 step of the kinematics; ``wk`` (5, N) and ``um`` (6,) are work arrays (no allocation per step)."""
+    for i in range(6):
+        um[i] = 0.5 * (u0[i] + u1[i])
+    k1, k2, k3, k4, xt = wk[0], wk[1], wk[2], wk[3], wk[4]
     _f(x, u0, g0, mno, k1, M)
-    _f(x + 0.5 * dt * k1, um, g0, mno, k2, M)
-    _f(x + 0.5 * dt * k2, um, g0, mno, k3, M)
-    _f(x + dt * k3, u1, g0, mno, k4, M)
+    for i in range(N):
+        xt[i] = x[i] + 0.5 * dt * k1[i]
+    _f(xt, um, g0, mno, k2, M)
+    for i in range(N):
+        xt[i] = x[i] + 0.5 * dt * k2[i]
+    _f(xt, um, g0, mno, k3, M)
+    for i in range(N):
+        xt[i] = x[i] + dt * k3[i]
+    _f(xt, u1, g0, mno, k4, M)
     for i in range(N):
         out[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @njit(cache=True)
-def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
+def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D, A, F, G):
     """Top rows of ``Phi = I + A dt + (A dt)^2 / 2`` and ``Qd = Gamma Q Gamma^T`` (eqs 7, 9, 13).
 
     The parameter rows of ``A`` are zero (eq 22), so ``Phi = [[Phi1, Phi2], [0, I]]`` with
     ``Phi[:10]`` (10, 22) written to ``Phi`` and ``Qd`` nonzero only in its top-left 10 x 10
     block, written to ``Qd`` (10, 10).  Same arithmetic as the dense reference, without the zeros.
+    ``A`` (10, N), ``F`` (10, 6), ``G`` (10, 6) are work arrays.
     """
-    A = np.zeros((10, N))
+    A[:, :] = 0.0
     _mbo(x[6:10], M)
     _dmdq(x[6:10], D)
     v = x[3:6]
@@ -191,7 +198,7 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
         A[8, 10 + j] = -0.5 * xi2[j]
         A[9, 10 + j] = -0.5 * xi3[j]
     # F (rows 0..9; the rest is zero): gyro noise enters like the gyro bias, acc noise like -I
-    F = np.zeros((10, 6))
+    F[:, :] = 0.0
     for i in range(3, 10):
         for j in range(3):
             F[i, j] = A[i, 10 + j]
@@ -204,7 +211,6 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
                 a2 += A[i, m] * A[m, j]
             Phi[i, j] = A[i, j] * dt + 0.5 * dt * dt * a2
         Phi[i, i] += 1.0
-    G = np.empty((10, 6))
     for i in range(10):
         for j in range(6):
             af = 0.0
@@ -221,9 +227,10 @@ def _phi_qd(x, u, dt, g0, mno, qd, Phi, Qd, M, D):
 
 
 @njit(cache=True, fastmath=_FM)
-def _predict_cov(P, Phi, Qd, out):
-    """``out = Phi P Phi^T + Qd`` for ``Phi = [[Phi[:, :10], Phi[:, 10:]], [0, I]]`` (10 x 22 top rows given)."""
-    T = np.zeros((10, N))  # Phi_top P, row-wise (contiguous inner loops)
+def _predict_cov(P, Phi, Qd, out, T):
+    """``out = Phi P Phi^T + Qd`` for ``Phi = [[Phi[:, :10], Phi[:, 10:]], [0, I]]`` (10 x 22 top rows given);
+    ``T`` (10, N) is a work array."""
+    T[:, :] = 0.0  # Phi_top P, row-wise (contiguous inner loops)
     for i in range(10):
         for m in range(N):
             a = Phi[i, m]
@@ -247,13 +254,15 @@ def _predict_cov(P, Phi, Qd, out):
 
 
 @njit(cache=True, fastmath=_FM)
-def _scalar(x, P, xp, h, r0, var):
-    """One scalar update: residual r0 - h (x - xp), expanded Joseph form. Returns False if not PD."""
+def _scalar(x, P, xp, h, r0, var, Ph, k):
+    """One scalar update: residual r0 - h (x - xp), expanded Joseph form. Returns False if not PD.
+
+    ``Ph`` and ``k`` (N,) are work arrays."""
     r = r0
     for i in range(N):
         if h[i] != 0.0:
             r -= h[i] * (x[i] - xp[i])
-    Ph = np.zeros(N)
+    Ph[:] = 0.0
     for m in range(N):
         a = h[m]
         if a != 0.0:
@@ -265,7 +274,8 @@ def _scalar(x, P, xp, h, r0, var):
     s = s0 + var
     if not (s > 0.0):
         return False
-    k = Ph / s
+    for i in range(N):
+        k[i] = Ph[i] / s
     for i in range(N):
         x[i] += k[i] * r
     for i in range(N):
@@ -286,6 +296,26 @@ def _profile(x, x0, step, z, dz):
         i = z.size - 2
     a = f - i
     return (1 - a) * z[i] + a * z[i + 1], (1 - a) * dz[i] + a * dz[i + 1]
+
+
+@njit(cache=True)
+def _chol(A, L):
+    """Lower Cholesky factor of the symmetric ``A`` into ``L`` (only its lower triangle is written and read);
+    False when ``A`` is not positive definite (a pivot that is not finite and positive)."""
+    for j in range(N):
+        s = A[j, j]
+        for m in range(j):
+            s -= L[j, m] * L[j, m]
+        if not (s > 0.0) or not np.isfinite(s):
+            return False
+        d = np.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, N):
+            v = A[i, j]
+            for m in range(j):
+                v -= L[i, m] * L[j, m]
+            L[i, j] = v / d
+    return True
 
 
 @njit(cache=True)
@@ -325,8 +355,18 @@ def ski_ekf_rts(
     x = x0.copy()
     P = P0.copy()
     xn = np.empty(N)
+    xp = np.empty(N)
+    # work arrays of the step functions: allocated once, not per step
+    A = np.empty((10, N))
+    F = np.empty((10, 6))
+    G = np.empty((10, 6))
+    T = np.empty((10, N))
+    Ph = np.empty(N)
+    kv = np.empty(N)
+    wk = np.empty((5, N))
+    um = np.empty(6)
     for k in range(n):
-        xp = x.copy()
+        xp[:] = x
         x_pred[k] = xp
         # c_q (eq 51)
         nq = np.sqrt(xp[6] ** 2 + xp[7] ** 2 + xp[8] ** 2 + xp[9] ** 2)
@@ -334,7 +374,7 @@ def ski_ekf_rts(
         for i in range(4):
             h[6 + i] = xp[6 + i] / nq
         resid[k, 0] = -(nq - 1.0)
-        if not _scalar(x, P, xp, h, -(nq - 1.0), rcq):
+        if not _scalar(x, P, xp, h, -(nq - 1.0), rcq, Ph, kv):
             return x_filt, x_filt, Pbuf, resid, k, 0
         if np.isfinite(pos[k, 0]):
             for i in range(3):
@@ -342,7 +382,7 @@ def ski_ekf_rts(
                 h[i] = 1.0
                 r0 = pos[k, i] - xp[i]
                 resid[k, 1 + i] = r0
-                if not _scalar(x, P, xp, h, r0, rpos[i]):
+                if not _scalar(x, P, xp, h, r0, rpos[i], Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
         if use_vel and np.isfinite(vel[k, 0]):
             _mbo(xp[6:10], M)
@@ -357,7 +397,7 @@ def ski_ekf_rts(
                     h[6 + kk] = D[kk, 0, i] * xp[3] + D[kk, 1, i] * xp[4] + D[kk, 2, i] * xp[5]
                 r0 = vel[k, i] - hv
                 resid[k, 4 + i] = r0
-                if not _scalar(x, P, xp, h, r0, rvel[i]):
+                if not _scalar(x, P, xp, h, r0, rvel[i], Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
         if use_mag and np.isfinite(mag[k, 0]):
             _mbo(xp[6:10], M)
@@ -372,7 +412,7 @@ def ski_ekf_rts(
                 h[19 + i] = mb
                 r0 = mag[k, i] - (s * mb + xp[16 + i])
                 resid[k, 7 + i] = r0
-                if not _scalar(x, P, xp, h, r0, rmag):
+                if not _scalar(x, P, xp, h, r0, rmag, Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
         if use_hill:
             if inrun[k]:
@@ -380,19 +420,19 @@ def ski_ekf_rts(
                 h[:] = 0.0
                 h[0], h[2] = -dz, 1.0
                 resid[k, 10] = z - xp[2]
-                if not _scalar(x, P, xp, h, z - xp[2], rir):
+                if not _scalar(x, P, xp, h, z - xp[2], rir, Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
                 h[:] = 0.0
                 h[1] = 1.0
                 resid[k, 11] = -xp[1]
-                if not _scalar(x, P, xp, h, -xp[1], rhir):
+                if not _scalar(x, P, xp, h, -xp[1], rhir, Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
             if landing[k] > 0.0:
                 z, dz = _profile(xp[0], la_x0, la_step, la_z, la_dz)
                 h[:] = 0.0
                 h[0], h[2] = -dz, 1.0
                 resid[k, 12] = z - xp[2]
-                if not _scalar(x, P, xp, h, z - xp[2], rla / landing[k]):
+                if not _scalar(x, P, xp, h, z - xp[2], rla / landing[k], Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0
         if not _ok(P):
             return x_filt, x_filt, Pbuf, resid, k, 0
@@ -400,13 +440,13 @@ def ski_ekf_rts(
         _pack(P, Pbuf[k])
         if k < n - 1:
             dt = t[k + 1] - t[k]
-            _rk4(x, u[k], u[k + 1], dt, g0, mno, xn, M)
-            _phi_qd(x, u[k], dt, g0, mno, qd[k], Phi, Qd, M, D)
-            _predict_cov(P, Phi, Qd, Pn)
+            _rk4(x, u[k], u[k + 1], dt, g0, mno, xn, M, wk, um)
+            _phi_qd(x, u[k], dt, g0, mno, qd[k], Phi, Qd, M, D, A, F, G)
+            _predict_cov(P, Phi, Qd, Pn, T)
             P[:, :] = Pn
             if not _ok(P):
                 return x_filt, x_filt, Pbuf, resid, k + 1, 1
-            x = xn.copy()
+            x[:] = xn
     # backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one
     x_s = np.empty((n, N))
     x_s[n - 1] = x_filt[n - 1]
@@ -419,15 +459,17 @@ def ski_ekf_rts(
     Dm = np.empty((N, N))
     E = np.empty((N, N))
     dx = np.empty(N)
+    L = np.zeros((N, N))
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
-        _phi_qd(x_filt[k], u[k], dt, g0, mno, qd[k], Phi, Qd, M, D)
-        _predict_cov(Pf, Phi, Qd, Pp)
+        _phi_qd(x_filt[k], u[k], dt, g0, mno, qd[k], Phi, Qd, M, D, A, F, G)
+        _predict_cov(Pf, Phi, Qd, Pp, T)
         for i in range(N):
             if not (Pp[i, i] > 0.0):
                 return x_filt, x_s, Pbuf, resid, k + 1, 2
-        L = np.linalg.cholesky(Pp)
+        if not _chol(Pp, L):
+            return x_filt, x_s, Pbuf, resid, k + 1, 2
         # The parameter rows of Phi are [0 I] and Qd has no parameter part, so Pp[:, 10:] =
         # (Phi Pf)[:, 10:] and the gain is C = [[C_top], [0 I]]: only C_top = rows 0..9 of
         # Pf Phi^T Pp^{-1} is solved for.  Ct10 = Pp^{-1} (Phi Pf)[:, :10] = C_top^T (22 x 10).
