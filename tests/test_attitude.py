@@ -39,6 +39,20 @@ def test_quest_three_vectors_and_per_sample_references():
     assert np.max(np.abs(loss - ld)) < 1e-12
 
 
+@pytest.mark.parametrize("n", [1, 7])
+def test_quest_many_vectors_matches_davenport(n: int) -> None:
+    """More than four vectors (the in-run alignment: hundreds for one sample) take the contracted path."""
+    ref = RNG.standard_normal((40, 3))
+    q = R.quat_normalize(RNG.standard_normal((n, 4)))
+    body = observe(q, ref, noise=0.03)
+    w = RNG.uniform(0.5, 2.0, 40)
+    for r in (ref, np.broadcast_to(ref, body.shape) + 0.01 * RNG.standard_normal(body.shape)):
+        qq, loss = Q.quest(body, r, w)
+        qd, ld = Q.davenport(body, r, w)
+        assert np.max(np.abs(qq - qd)) < 1e-9
+        assert np.max(np.abs(loss - ld)) < 1e-12
+
+
 def test_exact_observations_and_half_turns():
     q = R.quat_normalize(
         np.vstack([RNG.standard_normal((500, 4)), [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [1e-12, 0.6, 0, 0.8]]])

@@ -125,7 +125,11 @@ def _quest_block(b: np.ndarray, r: np.ndarray, a: np.ndarray, newton_steps: int)
         bu /= np.sqrt(bu[:, 0] ** 2 + bu[:, 1] ** 2 + bu[:, 2] ** 2)[:, None]
     ru = _unit(r)
     ru = ru[:, :, None] if ru.ndim == 2 else np.ascontiguousarray(ru.transpose(1, 2, 0))  # (k, 3, m|1)
-    B = [[sum(a[i] * bu[i, p] * ru[i, c] for i in range(k)) for c in range(3)] for p in range(3)]
+    if k > 4:  # many vectors (few samples): one contraction instead of k products per entry
+        Bm = np.einsum("i,ipm,icm->pcm", a, bu, np.broadcast_to(ru, (k, 3, bu.shape[2])))
+        B = [[Bm[p, c] for c in range(3)] for p in range(3)]
+    else:
+        B = [[sum(a[i] * bu[i, p] * ru[i, c] for i in range(k)) for c in range(3)] for p in range(3)]
     sig = B[0][0] + B[1][1] + B[2][2]
     z = (B[1][2] - B[2][1], B[2][0] - B[0][2], B[0][1] - B[1][0])
     # K (scalar first) as symmetric entries k_ij

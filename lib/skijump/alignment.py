@@ -37,8 +37,14 @@ def body_to_start(t: np.ndarray, gyr: np.ndarray, bias: np.ndarray) -> np.ndarra
     kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
     kx[:, 1, 0], kx[:, 2, 0], kx[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
     step = np.eye(3) + s[:, None, None] * kx + cc[:, None, None] * (kx @ kx)
-    for k in range(n - 1):
-        c[k + 1] = c[k] @ step[k]
+    # prefix products step_0 @ ... @ step_k by doubling (log2(n) batched products, not n small ones):
+    # after the round with shift d, step[k] is the product of the last 2d factors ending at k
+    d = 1
+    while d < n - 1:
+        nxt = step.copy()
+        nxt[d:] = step[:-d] @ step[d:]
+        step, d = nxt, 2 * d
+    c[1:] = step
     return c
 
 
@@ -100,23 +106,22 @@ def inrun_attitude(
     f0 = np.einsum("kij,kj->ki", c, u[: last + 1, 3:6])  # specific force carried into body frame 0
     csum = np.vstack([np.zeros((1, 3)), np.cumsum(f0, axis=0)])
     allfix = np.flatnonzero(np.isfinite(vel[: last + 1, 0]))
-    body, ref = [f0[rest[: last + 1]].mean(axis=0)], [np.array([0.0, 0.0, -g0])]
-    for k in fix:
-        lo = allfix[np.searchsorted(t[allfix], t[k] - half_window)]
-        hi = allfix[min(np.searchsorted(t[allfix], t[k] + half_window, "right"), allfix.size) - 1]
-        if hi <= lo or t[hi] - t[lo] < half_window:
-            continue
-        acc = (vel[hi] - vel[lo]) / (t[hi] - t[lo])
-        body.append((csum[hi + 1] - csum[lo]) / (hi + 1 - lo))
-        ref.append(acc - np.array([0.0, 0.0, g0]))
-    if len(ref) < min_epochs + 1:
+    # per in-run epoch: the GNSS fixes bounding +-half_window around it (all epochs at once)
+    tf = t[allfix]
+    lo = allfix[np.searchsorted(tf, t[fix] - half_window)]
+    hi = allfix[np.minimum(np.searchsorted(tf, t[fix] + half_window, "right"), allfix.size) - 1]
+    ok = (hi > lo) & (t[hi] - t[lo] >= half_window)
+    lo, hi = lo[ok], hi[ok]
+    acc = (vel[hi] - vel[lo]) / (t[hi] - t[lo])[:, None]
+    body = np.vstack([f0[rest[: last + 1]].mean(axis=0), (csum[hi + 1] - csum[lo]) / (hi + 1 - lo)[:, None]])
+    ref_a = np.vstack([[0.0, 0.0, -g0], acc - np.array([0.0, 0.0, g0])])
+    if ref_a.shape[0] < min_epochs + 1:
         return None
-    ref_a = np.asarray(ref)
     tilt = np.degrees(np.arccos(np.clip(-ref_a[1:, 2] / np.linalg.norm(ref_a[1:], axis=1), -1, 1)))
     if tilt.max() < min_tilt_deg:
         return None
-    w = np.ones(len(ref))
-    q, loss = quest(np.asarray(body)[None], ref_a, w / w.sum())
+    w = np.ones(ref_a.shape[0])
+    q, loss = quest(body[None], ref_a, w / w.sum())
     if not (loss[0] <= max_loss):
         return None
     return q[0]
@@ -155,16 +160,15 @@ def gnss_latency(
     v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None], axis=0)])
     tg, vg = t[gk], vel[gk]
     basis = np.column_stack([np.ones(tg.size), tg - tg.mean()])
-    proj = basis @ np.linalg.pinv(basis)  # removes a constant and a drift per axis
-
-    def cost(tau: float) -> float:
-        vi = np.column_stack([np.interp(tg - tau, ts, v_imu[:, j]) for j in range(3)])
-        r = vg - vi
-        r = r - proj @ r
-        return float(np.sum(r * r))
+    pinv = np.linalg.pinv(basis)  # (2, m): a constant and a drift per axis, removed below
 
     grid = np.arange(-max_latency, max_latency + step / 2, step)
-    c = np.array([cost(tau) for tau in grid])
+    # the misfit at every grid delay at once: (delays, fixes, 3) residuals, constant and drift removed
+    tq = (tg[None, :] - grid[:, None]).ravel()
+    vi = np.stack([np.interp(tq, ts, v_imu[:, j]) for j in range(3)], axis=-1).reshape(grid.size, tg.size, 3)
+    r = vg[None] - vi
+    r -= np.matmul(basis, np.matmul(pinv, r))
+    c = np.einsum("gic,gic->g", r, r)
     i = int(np.argmin(c))
     if i == 0 or i == grid.size - 1:
         return None
