@@ -139,7 +139,7 @@ def cold_compile_seconds() -> float:
             "t=np.arange(n)*0.01; u=z((n,6)); pos=np.full((n,3),np.nan); pos[0]=0\n"
             "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
             "9.81,np.eye(3),np.ones(3),np.ones(6),np.ones(3),np.ones(3),1.0,1.0,1.0,1.0,1.0,0.0,1.0,e,e,0.0,1.0,e,e,"
-            "False,True,True)\n"
+            "False,True,True,True)\n"
         )
         subprocess.run([sys.executable, "-c", prog], env=env, check=True)
         return time.perf_counter() - t0

@@ -246,6 +246,10 @@ def test_compiled_engine_equals_reference_engine():
     np.testing.assert_allclose(a.x_smooth, b.x_smooth, rtol=0, atol=1e-9)
     idx = np.arange(22)
     np.testing.assert_allclose(a.cov(idx), b.cov(idx), rtol=0, atol=1e-10)
+    # standard deviations computed in the compiled backward pass = the numpy ones from the covariances
+    assert b.std is None and a.std.shape == (inp.t.size, 28)
+    want = np.hstack(R._std_from_cov(b.x_smooth, b.cov, inp, b.var))
+    np.testing.assert_allclose(a.std, want, rtol=1e-7, atol=1e-12)
     assert set(a.residuals) == set(b.residuals)
     for k in a.residuals:
         np.testing.assert_allclose(a.residuals[k], b.residuals[k], rtol=0, atol=1e-9)

@@ -105,12 +105,12 @@ def main(
     if lever_arm is not None:
         cfg.lever_arm = tuple(parse_floats(lever_arm, 3, "--lever-arm"))  # type: ignore[assignment]
     bar = None
+    show = not tool.quiet and sys.stderr.isatty()  # no bar: no per-step callbacks either
 
     def on_start(total: int) -> None:
         nonlocal bar
-        if not tool.quiet and sys.stderr.isatty():
-            bar = click.progressbar(length=total, label="rts-smooth", file=sys.stderr)
-            bar.__enter__()
+        bar = click.progressbar(length=total, label="rts-smooth", file=sys.stderr)
+        bar.__enter__()
 
     def progress(_k: int) -> None:
         if bar is not None:
@@ -125,8 +125,8 @@ def main(
             takeoff=_times(takeoff, "--takeoff"),
             touchdown=_times(touchdown, "--touchdown"),
             filtered=filtered,
-            progress=progress,
-            on_start=on_start,
+            progress=progress if show else None,
+            on_start=on_start if show else None,
         )
     finally:
         if bar is not None:

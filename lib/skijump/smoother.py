@@ -48,7 +48,7 @@ from sportfusion.core.session import with_columns
 from sportfusion.estimators.kalman import CovarianceError, Measurement, ekf_rts
 from sportfusion.estimators.quest import quest
 from sportfusion.skijump import model as mdl
-from sportfusion.skijump.alignment import gnss_latency, inrun_attitude, shift_gnss
+from sportfusion.skijump.alignment import body_to_start, gnss_latency, inrun_attitude, shift_gnss
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
 from sportfusion.skijump.saturation import clipped_message, mag_innovation_outliers, step_noise
@@ -59,6 +59,14 @@ from sportfusion.skijump.smoother_inputs import (
     profile_tables,
     segments,
     session_inputs,
+)
+from sportfusion.skijump.smoother_outputs import (  # noqa: F401  (re-exported: the output columns' helpers)
+    _estimate_columns,
+    _interp_columns,
+    _interp_rows,
+    _std_from_cov,
+    constraint_residuals,
+    euler_jacobian,
 )
 
 
@@ -86,8 +94,13 @@ def _initial_rest(inp: SkiJumpInputs, cfg: SmootherConfig) -> np.ndarray:
     return rest
 
 
-def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Paper §4.1: first GNSS fix, QUEST attitude from the rest at the start, gyro bias its mean rate; Table 3 P0."""
+def initial_state(
+    inp: SkiJumpInputs, cfg: SmootherConfig, with_source: bool = False
+) -> tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, bool]:
+    """Paper §4.1: first GNSS fix, QUEST attitude from the rest at the start, gyro bias its mean rate; Table 3 P0.
+
+    ``with_source``: also return whether the attitude came from the in-run alignment (True) or the rest.
+    """
     x0 = np.zeros(mdl.N)
     ip = int(np.flatnonzero(np.isfinite(inp.pos[:, 0]))[0])
     x0[0:3] = inp.pos[ip]
@@ -108,14 +121,11 @@ def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, 
         gx, gy, gz = -acc / np.linalg.norm(acc)
         roll, pitch = math.atan2(gy, gz), math.atan2(-gx, math.hypot(gy, gz))
         q = rotations.quat_from_euler(np.array(roll), np.array(pitch), np.array(math.radians(inp.azimuth_deg)))
-    if cfg.inrun_align:
-        qa = inrun_attitude(inp.t, inp.u, inp.vel, w, inp.inrun, inp.g0, x0[mdl.I_BG])
-        if qa is not None:
-            q = qa
+    qa = inrun_attitude(inp.t, inp.u, inp.vel, w, inp.inrun, inp.g0, x0[mdl.I_BG]) if cfg.inrun_align else None
+    if qa is not None:
+        q = qa
     x0[6:10] = q
-    iv = np.flatnonzero(np.isfinite(inp.vel[:, 0]))
-    if iv.size:
-        x0[3:6] = m_bo(q) @ inp.vel[iv[0]]
+    _start_velocity(inp, x0)
     p = np.concatenate(
         [
             cfg.p0_pos,
@@ -127,7 +137,34 @@ def initial_state(inp: SkiJumpInputs, cfg: SmootherConfig) -> tuple[np.ndarray, 
             [cfg.p0_scale_mag] * 3,
         ]
     )
-    return x0, np.diag(np.asarray(p, float) ** 2)
+    P0 = np.diag(np.asarray(p, float) ** 2)
+    return (x0, P0, qa is not None) if with_source else (x0, P0)
+
+
+def _start_velocity(inp: SkiJumpInputs, x0: np.ndarray) -> None:
+    """``x0``'s body-frame velocity: the first GNSS velocity rotated by ``x0``'s attitude (in place)."""
+    iv = np.flatnonzero(np.isfinite(inp.vel[:, 0]))
+    if iv.size:
+        x0[3:6] = m_bo(x0[6:10]) @ inp.vel[iv[0]]
+
+
+def _forward_start(seg: SkiJumpInputs, xf: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """The initial state re-linearised from a forward (EKF) run over the start window ``xf`` (m, 22).
+
+    The parameters (biases, magnetometer scale) have no process noise (eq 22): their smoothed value at
+    step 0 is the filtered one at the window's end.  The attitude at step 0 is the filtered attitude at the
+    window's end carried back by the gyro (bias-corrected by that estimate, :func:`body_to_start`): once the
+    in-run has pinned the heading, this is what the smoothed pass over the window returns, at the cost of
+    the forward run alone.  Position stays the first fix; the velocity is re-rotated.
+    """
+    k = xf.shape[0] - 1
+    x = x0.copy()
+    x[10:] = xf[k, 10:]
+    c = body_to_start(seg.t[: k + 1], seg.u[: k + 1, 0:3], xf[k, mdl.I_BG])
+    q = rotations.quat_from_dcm(c[-1] @ m_bo(xf[k, 6:10] / np.linalg.norm(xf[k, 6:10])))
+    x[6:10] = q if q[0] >= 0 else -q
+    _start_velocity(seg, x)
+    return x
 
 
 def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None):
@@ -196,6 +233,9 @@ class Smoothed:
     residuals: dict[str, np.ndarray]
     passes: list[int]
     gnss_latency: list[float | None] = field(default_factory=list)  # per segment [s] (None: not estimated)
+    #: (n, 28) smoothed standard deviations from the compiled backward pass: the 22 states, the hill-frame
+    #: velocity, roll/pitch/yaw (None from the numpy reference engine: computed from ``cov`` instead)
+    std: np.ndarray | None = None
 
 
 def _fast_engine():  # noqa: ANN202
@@ -206,7 +246,15 @@ def _fast_engine():  # noqa: ANN202
     return skijump_fast
 
 
-def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, x0: np.ndarray, P0: np.ndarray):  # noqa: ANN001, ANN202
+def _run_fast(  # noqa: ANN202
+    fast,  # noqa: ANN001
+    seg: SkiJumpInputs,
+    cfg: SmootherConfig,
+    hill: Hill | None,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    smooth: bool = True,
+):
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
     empty = np.zeros(2)
@@ -243,10 +291,11 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
             use_hill,
             bool(cfg.use_gnss_vel),
             bool(cfg.use_mag),
+            bool(smooth),
         )
     except np.linalg.LinAlgError:
         raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
-    xf, xs, Pp, resid, fail, phase = out
+    xf, xs, Pp, resid, fail, phase, std = out
     if fail >= 0:
         what = ("update", "prediction", "backward pass")[phase]
         raise CovarianceError(f"covariance not positive definite at step {fail} (t = {seg.t[fail]:.3f} s) ({what})")
@@ -254,7 +303,7 @@ def _run_fast(fast, seg: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None, 
     for name, w in fast.RESIDUALS:
         res[name] = resid[:, i : i + w]
         i += w
-    return xf, xs, Pp, res
+    return xf, xs, Pp, res, std
 
 
 def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
@@ -323,7 +372,7 @@ def smooth_inputs(
     fast = _fast_engine() if engine in ("auto", "numba") else None
     if engine == "numba" and fast is None:
         raise InputError("engine numba requested but numba is not installed; expected pip install numba")
-    xfs, xss, covs, resids, npass, lat = [], [], [], [], [], []
+    xfs, xss, covs, resids, npass, lat, stds = [], [], [], [], [], [], []
     for a, b in segments(inp.t, cfg.max_gap):
         lat.append(None)
         seg = _slice(inp, a, b)
@@ -332,7 +381,7 @@ def smooth_inputs(
                 f"the IMU segment {seg.t[0]:.2f}-{seg.t[-1]:.2f} s has no GNSS fix (or a single sample); "
                 "expected GNSS during every recorded stretch"
             )
-        x0, P0 = initial_state(seg, cfg)
+        x0, P0, aligned = initial_state(seg, cfg, with_source=True)
         # the window that needs re-linearising: the start up to the in-run's end (the first take-off in
         # the segment plus pass_after_takeoff), at least pass_window seconds
         t_end = seg.t[0] + cfg.pass_window
@@ -342,29 +391,28 @@ def smooth_inputs(
         nw = int(np.searchsorted(seg.t, t_end, side="right"))
         nw = max(min(nw, seg.t.size), 2)
 
-        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0):  # noqa: ANN202
+        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0, smooth: bool = True):  # noqa: ANN202
             if fast is None:
                 propagate, measure = _model_callables(sub, cfg, hill)
                 r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
-                return r.x_filt, r.x_smooth, r.P_smooth, r.residuals
-            out = _run_fast(fast, sub, cfg, hill, x0, P0)
+                return r.x_filt, r.x_smooth if smooth else r.x_filt, r.P_smooth, r.residuals, None
+            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth)
             if progress is not None:
                 for k in range(2 * sub.t.size - 1):
                     progress(k)
             return out
 
         try:
-            # re-linearisation passes over the first pass_window seconds, then the whole segment
-            # (one pass: the whole segment at once, no window run first)
+            # runs over the start (the window up to the in-run's end) that re-linearise it, then the whole
+            # segment; with the in-run alignment one forward run over the window is enough (_forward_start)
             win = seg if nw == seg.t.size or cfg.passes <= 1 else _slice(seg, 0, nw)
-            # runs over the start: passes in all, the last of them the whole segment
             n_win = max(cfg.passes, 1) if win is seg else cfg.passes - 1
             done, it, change = None, 0, math.inf
+            if win is not seg and aligned and cfg.start_pass == "forward":
+                x0 = _forward_start(seg, run(win, x0, smooth=False)[0], x0)
+                n_win, it = 0, 0
             for it in range(n_win):
                 done = run(win, x0)
-                if it == 0 and cfg.estimate_latency and cfg.passes > 1 and tos:
-                    lat[-1] = _correct_latency(seg, done[1][: win.t.size], min(tos), win.t[-1], cfg.latency_min)
-                    win = seg if win is seg else _slice(seg, 0, nw)
                 q_old = x0[6:10] / np.linalg.norm(x0[6:10])
                 x0 = done[1][0].copy()
                 x0[6:10] /= np.linalg.norm(x0[6:10])
@@ -374,26 +422,32 @@ def smooth_inputs(
             if win is not seg:
                 done = run(seg, x0)
                 it += 1
-            if lat[-1] is not None and abs(lat[-1]) >= cfg.latency_min:
-                # a latency was found and applied: the first pass had absorbed part of it, so estimate what is
-                # left on the corrected pass and run once more (only sessions with a latency pay for it)
-                more = _correct_latency(seg, done[1], min(tos), seg.t[-1], 0.0)
-                if more is not None:
-                    lat[-1] += more
+            if cfg.estimate_latency and cfg.passes > 1 and tos:
+                # the GNSS latency from the smoothed pass; where one is applied, that pass had absorbed part of
+                # it: estimate what is left on the corrected pass and run once more (only sessions with a
+                # latency pay for these runs)
+                lat[-1] = _correct_latency(seg, done[1], min(tos), seg.t[-1], cfg.latency_min)
+                if lat[-1] is not None and abs(lat[-1]) >= cfg.latency_min:
                     done = run(seg, _unit_quat(done[1][0]))
                     it += 1
+                    more = _correct_latency(seg, done[1], min(tos), seg.t[-1], 0.0)
+                    if more is not None:
+                        lat[-1] += more
+                        done = run(seg, _unit_quat(done[1][0]))
+                        it += 1
             if any(cfg.lever_arm):
                 # the antenna is not at the IMU: take the lever arm off the fixes with the smoothed attitude and
                 # rates (the measurement model linearised about the last pass), and run once more
                 _remove_lever_arm(seg, done[1], np.asarray(cfg.lever_arm, float))
                 done = run(seg, _unit_quat(done[1][0]))
                 it += 1
-            xf, xs, P, res = done
+            xf, xs, P, res, sd = done
         except CovarianceError as exc:
             raise InputError(f"the smoother failed: {exc}") from None
         xfs.append(xf)
         xss.append(xs)
         covs.append(P)
+        stds.append(sd)
         resids.append(res)
         npass.append(it + 1)
 
@@ -428,140 +482,8 @@ def smooth_inputs(
         for k, v in r.items():
             out[k][i : i + xf.shape[0]] = v
         i += xf.shape[0]
-    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, var, out, npass, lat)
-
-
-def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
-    """Values at the steps -> every table row (linear in time; NaN outside the IMU segments)."""
-    out = np.full((t_rows.size, values.shape[1]), np.nan)
-    for a, b in segments(t, max_gap):
-        inside = (t_rows >= t[a]) & (t_rows <= t[b - 1])
-        for j in range(values.shape[1]):
-            out[inside, j] = np.interp(t_rows[inside], t[a:b], values[a:b, j])
-    return out
-
-
-def euler_jacobian(q: np.ndarray) -> np.ndarray:
-    """d(roll, pitch, yaw)/dq (n, 3, 4) of :func:`sportfusion.core.rotations.euler_from_quat` at ``q`` (n, 4).
-
-    Analytic: roll and yaw are ``atan2`` of two entries of ``M_BO`` (quadratic in q, so the
-    scale of q cancels) and pitch is ``asin(-m02 / |q|^2)``; the derivative is taken with
-    respect to the raw (not necessarily unit) quaternion, as the angles normalise it.
-    """
-    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    m12, m22 = 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-    m01, m00 = 2 * (q1 * q2 + q0 * q3), q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    m02 = 2 * (q1 * q3 - q0 * q2)
-    d12 = 2 * np.stack((q1, q0, q3, q2), axis=-1)
-    d22 = 2 * np.stack((q0, -q1, -q2, q3), axis=-1)
-    d01 = 2 * np.stack((q3, q2, q1, q0), axis=-1)
-    d00 = 2 * np.stack((q0, q1, -q2, -q3), axis=-1)
-    d02 = 2 * np.stack((-q2, q3, -q0, q1), axis=-1)
-    J = np.empty((q.shape[0], 3, 4))
-    J[:, 0] = (m22[:, None] * d12 - m12[:, None] * d22) / (m12 * m12 + m22 * m22)[:, None]
-    sp = -m02 / n2
-    dsp = -(d02 * n2[:, None] - m02[:, None] * 2 * q) / (n2 * n2)[:, None]
-    J[:, 1] = dsp / np.sqrt(np.maximum(1.0 - sp * sp, 1e-300))[:, None]
-    J[:, 2] = (m00[:, None] * d01 - m01[:, None] * d00) / (m01 * m01 + m00 * m00)[:, None]
-    return J
-
-
-def _interp_columns(
-    t_rows: np.ndarray, t: np.ndarray, cols: dict[str, np.ndarray], max_gap: float
-) -> dict[str, np.ndarray]:
-    """:func:`_interp_rows` column by column (no (rows, columns) stack)."""
-    segs = segments(t, max_gap)
-    inside = [(a, b, np.flatnonzero((t_rows >= t[a]) & (t_rows <= t[b - 1]))) for a, b in segs]
-    out = {}
-    for name, v in cols.items():
-        o = np.full(t_rows.size, np.nan)
-        for a, b, rows in inside:
-            o[rows] = np.interp(t_rows[rows], t[a:b], v[a:b])
-        out[name] = o
-    return out
-
-
-def _estimate_columns(
-    x: np.ndarray,
-    cov: Callable[..., np.ndarray] | None,
-    inp: SkiJumpInputs,
-    prefix: str = "",
-    var: Callable[[], np.ndarray] | None = None,
-) -> dict[str, np.ndarray]:
-    """Named estimate columns (at the steps) from states (n, 22) and covariances (n, 22, 22)."""
-    mno = m_no(math.radians(inp.azimuth_deg))
-    q = x[:, 6:10]
-    qn = q / np.linalg.norm(q, axis=1, keepdims=True)
-    M = m_bo(q)
-    v_o = np.einsum("nji,nj->ni", M, x[:, 3:6])
-    v_n = rotations.ned_to_local(v_o, inp.azimuth_deg)  # the one NED -> hill-frame rotation
-    roll, pitch, yaw = rotations.euler_from_quat(qn)
-    cols: dict[str, np.ndarray] = {}
-    for k, a in enumerate("xyz"):
-        cols[prefix + a] = x[:, k]
-    for k, a in enumerate("xyz"):
-        cols[f"{prefix}v{a}"] = v_n[:, k]
-    for k in range(4):
-        cols[f"{prefix}q{k}"] = qn[:, k]
-    cols[prefix + "roll"], cols[prefix + "pitch"], cols[prefix + "yaw"] = roll, pitch, yaw
-    if prefix:
-        return cols
-    for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
-        for k, a in enumerate("xyz"):
-            cols[f"{name}_{a}"] = x[:, sl][:, k]
-    # eq 50: the magnetometer the estimate predicts (the paper's Figure 12 sets it beside the measurement)
-    mag = (1.0 + x[:, mdl.I_SM]) * (M @ inp.m_o) + x[:, mdl.I_BM]
-    for k, a in enumerate("xyz"):
-        cols[f"mag_pred_{a}"] = mag[:, k]
-    if cov is None:
-        return cols
-    if var is not None:
-        d = np.sqrt(np.maximum(var(), 0.0))
-    else:
-        d = np.sqrt(np.maximum(np.stack([cov(np.array([i]))[:, 0, 0] for i in range(mdl.N)], axis=-1), 0.0))
-    for k, a in enumerate("xyz"):
-        cols[f"std_{a}"] = d[:, k]
-    # in blocks of rows: the Jacobians' temporaries stay small (memory per step, not per session)
-    sv, se = np.empty((x.shape[0], 3)), np.empty((x.shape[0], 3))
-    for r0 in range(0, x.shape[0], 8192):
-        r = slice(r0, r0 + 8192)
-        P = cov(np.arange(3, 10), r0, r0 + 8192)  # (m, 7, 7): v_B and q, this block only
-        # hill-frame velocity: J = M_NO [M^T, d(M^T v)/dq] over (v_B, q)
-        dm = mdl.dm_dq(q[r])  # (m, 4, 3, 3)
-        Jv = np.einsum("ij,nkj->nik", mno, M[r])  # (m,3,3)  M_NO M^T
-        Jq = np.einsum("ab,nkib,ni->nak", mno, dm, x[r, 3:6])  # (m,3,4)  M_NO dM_k^T v
-        J = np.concatenate([Jv, Jq], axis=2)
-        Cv = np.einsum("nij,njk,nlk->nil", J, P, J, optimize=True)
-        sv[r] = np.sqrt(np.maximum(np.diagonal(Cv, axis1=1, axis2=2), 0.0))
-        # Euler angles: analytic Jacobian w.r.t. q
-        Je = euler_jacobian(q[r])
-        Ce = np.einsum("nij,njk,nlk->nil", Je, P[:, 3:7, 3:7], Je, optimize=True)
-        se[r] = np.sqrt(np.maximum(np.diagonal(Ce, axis1=1, axis2=2), 0.0))
-    for k, a in enumerate("xyz"):
-        cols[f"std_v{a}"] = sv[:, k]
-    for k in range(4):
-        cols[f"std_q{k}"] = d[:, 6 + k]
-    for k, a in enumerate(("roll", "pitch", "yaw")):
-        cols[f"std_{a}"] = se[:, k]
-    for name, sl in (("bias_gyr", mdl.I_BG), ("bias_acc", mdl.I_BA), ("bias_mag", mdl.I_BM), ("scale_mag", mdl.I_SM)):
-        for k, a in enumerate("xyz"):
-            cols[f"std_{name}_{a}"] = d[:, sl][:, k]
-    return cols
-
-
-def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -> dict[str, np.ndarray]:
-    """Constraint values (eq 51) at the states ``x`` (n, 22): NaN where a hill constraint is inactive."""
-    out = {"c_q": np.linalg.norm(x[:, 6:10], axis=1) - 1.0}
-    nan = np.full(x.shape[0], np.nan)
-    if hill is None:
-        out.update(c_v_ir=nan, c_h_ir=nan.copy(), c_v_la=nan.copy())
-        return out
-    ir, la = profile_tables(hill)
-    out["c_v_ir"] = np.where(inp.inrun, x[:, 2] - ir.many(x[:, 0]), np.nan)
-    out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
-    out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)
-    return out
+    std = None if any(v is None for v in stds) else np.concatenate(stds)
+    return Smoothed(np.concatenate(xfs), np.concatenate(xss), cov, var, out, npass, lat, std)
 
 
 def rts_smooth_table(
@@ -627,7 +549,7 @@ def rts_smooth_table(
                 res = smooth_inputs(inp, hill, cfg, progress, engine)
             inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     t_rows = schema.floats(table, "t")
-    cols = _estimate_columns(res.x_smooth, res.cov, inp, var=res.var)
+    cols = _estimate_columns(res.x_smooth, res.cov, inp, var=res.var, std=res.std)
     cols.update(constraint_residuals(res.x_smooth, inp, hill if cfg.hill_constraints else None))
     if filtered:
         cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))

@@ -32,7 +32,11 @@ processes load it in about a second.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from sportfusion.core._numba import preload_cython_blas
+
+preload_cython_blas()  # before numba: its BLAS check then skips importing the scipy.linalg package
+from numba import njit  # noqa: E402
 
 N = 22
 NP = N * (N + 1) // 2
@@ -326,12 +330,73 @@ def _ok(P):
     return True
 
 
+#: Columns of the standard-deviation rows returned by :func:`ski_ekf_rts`: the 22 states, the hill-frame
+#: velocity (3) and roll, pitch, yaw (3).
+NSTD = N + 6
+
+
+@njit(cache=True)
+def _sqrt0(v):
+    return np.sqrt(v) if v >= 0.0 else (0.0 if v < 0.0 else v)  # negative round-off -> 0, NaN stays
+
+
+@njit(cache=True)
+def _std_row(x, P, mno, out, M, D, J):
+    """Standard deviations at one step from the (full) covariance ``P``: the states' (22), the hill-frame
+    velocity's (3; ``M_NO M_BO^T v_B`` linearised over ``v_B`` and ``q``) and roll, pitch, yaw (3; the analytic
+    Jacobian of :func:`sportfusion.skijump.smoother_outputs.euler_jacobian`) into ``out`` (28,).  ``M`` (3, 3),
+    ``D`` (4, 3, 3) and ``J`` (3, 7) are work arrays."""
+    for i in range(N):
+        out[i] = _sqrt0(P[i, i])
+    _mbo(x[6:10], M)
+    _dmdq(x[6:10], D)
+    for a in range(3):
+        for j in range(3):
+            J[a, j] = mno[a, 0] * M[j, 0] + mno[a, 1] * M[j, 1] + mno[a, 2] * M[j, 2]
+        for k in range(4):
+            s = 0.0
+            for b in range(3):
+                s += mno[a, b] * (D[k, 0, b] * x[3] + D[k, 1, b] * x[4] + D[k, 2, b] * x[5])
+            J[a, 3 + k] = s
+    for a in range(3):
+        s = 0.0
+        for i in range(7):
+            for j in range(7):
+                s += J[a, i] * P[3 + i, 3 + j] * J[a, j]
+        out[N + a] = _sqrt0(s)
+    q0, q1, q2, q3 = x[6], x[7], x[8], x[9]
+    n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+    m12, m22 = 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    m01, m00 = 2 * (q1 * q2 + q0 * q3), q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
+    m02 = 2 * (q1 * q3 - q0 * q2)
+    r1, r2 = m12 * m12 + m22 * m22, m01 * m01 + m00 * m00
+    sp = -m02 / n2
+    c = np.sqrt(max(1.0 - sp * sp, 1e-300))
+    qq = (q0, q1, q2, q3)
+    d12 = (2 * q1, 2 * q0, 2 * q3, 2 * q2)
+    d22 = (2 * q0, -2 * q1, -2 * q2, 2 * q3)
+    d01 = (2 * q3, 2 * q2, 2 * q1, 2 * q0)
+    d00 = (2 * q0, 2 * q1, -2 * q2, -2 * q3)
+    d02 = (-2 * q2, 2 * q3, -2 * q0, 2 * q1)
+    for i in range(4):
+        J[0, i] = (m22 * d12[i] - m12 * d22[i]) / r1
+        J[1, i] = -(d02[i] * n2 - m02 * 2 * qq[i]) / (n2 * n2) / c
+        J[2, i] = (m00 * d01[i] - m01 * d00[i]) / r2
+    for a in range(3):
+        s = 0.0
+        for i in range(4):
+            for j in range(4):
+                s += J[a, i] * P[6 + i, 6 + j] * J[a, j]
+        out[N + 3 + a] = _sqrt0(s)
+
+
 @njit(cache=True, fastmath=_FM)
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
-    ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag,
+    ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
 ):  # fmt: skip
-    """Forward EKF and backward RTS over all steps (see the module text).
+    """Forward EKF and backward RTS over all steps (see the module text); ``smooth`` False: the forward
+    pass only (``x_smooth`` is then ``x_filt`` and the covariances are the filtered ones).
 
     Returns
     -------
@@ -340,6 +405,7 @@ def ski_ekf_rts(
     resid : (n, 13) innovations (RESIDUALS order), NaN where absent
     fail : int, -1 or the step at which a covariance stopped being positive definite
     phase : int, 0 update, 1 prediction, 2 backward pass
+    std : (n, NSTD) smoothed standard deviations (:func:`_std_row`; (0, NSTD) when not ``smooth``)
     """
     n = t.size
     x_filt = np.empty((n, N))
@@ -375,7 +441,7 @@ def ski_ekf_rts(
             h[6 + i] = xp[6 + i] / nq
         resid[k, 0] = -(nq - 1.0)
         if not _scalar(x, P, xp, h, -(nq - 1.0), rcq, Ph, kv):
-            return x_filt, x_filt, Pbuf, resid, k, 0
+            return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if np.isfinite(pos[k, 0]):
             for i in range(3):
                 h[:] = 0.0
@@ -383,7 +449,7 @@ def ski_ekf_rts(
                 r0 = pos[k, i] - xp[i]
                 resid[k, 1 + i] = r0
                 if not _scalar(x, P, xp, h, r0, rpos[i], Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if use_vel and np.isfinite(vel[k, 0]):
             _mbo(xp[6:10], M)
             _dmdq(xp[6:10], D)
@@ -398,7 +464,7 @@ def ski_ekf_rts(
                 r0 = vel[k, i] - hv
                 resid[k, 4 + i] = r0
                 if not _scalar(x, P, xp, h, r0, rvel[i], Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if use_mag and np.isfinite(mag[k, 0]):
             _mbo(xp[6:10], M)
             _dmdq(xp[6:10], D)
@@ -413,7 +479,7 @@ def ski_ekf_rts(
                 r0 = mag[k, i] - (s * mb + xp[16 + i])
                 resid[k, 7 + i] = r0
                 if not _scalar(x, P, xp, h, r0, rmag, Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if use_hill:
             if inrun[k]:
                 z, dz = _profile(xp[0], ir_x0, ir_step, ir_z, ir_dz)
@@ -421,21 +487,21 @@ def ski_ekf_rts(
                 h[0], h[2] = -dz, 1.0
                 resid[k, 10] = z - xp[2]
                 if not _scalar(x, P, xp, h, z - xp[2], rir, Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
                 h[:] = 0.0
                 h[1] = 1.0
                 resid[k, 11] = -xp[1]
                 if not _scalar(x, P, xp, h, -xp[1], rhir, Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
             if landing[k] > 0.0:
                 z, dz = _profile(xp[0], la_x0, la_step, la_z, la_dz)
                 h[:] = 0.0
                 h[0], h[2] = -dz, 1.0
                 resid[k, 12] = z - xp[2]
                 if not _scalar(x, P, xp, h, z - xp[2], rla / landing[k], Ph, kv):
-                    return x_filt, x_filt, Pbuf, resid, k, 0
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if not _ok(P):
-            return x_filt, x_filt, Pbuf, resid, k, 0
+            return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         x_filt[k] = x
         _pack(P, Pbuf[k])
         if k < n - 1:
@@ -445,8 +511,10 @@ def ski_ekf_rts(
             _predict_cov(P, Phi, Qd, Pn, T)
             P[:, :] = Pn
             if not _ok(P):
-                return x_filt, x_filt, Pbuf, resid, k + 1, 1
+                return x_filt, x_filt, Pbuf, resid, k + 1, 1, np.empty((0, NSTD))
             x[:] = xn
+    if not smooth:
+        return x_filt, x_filt, Pbuf, resid, -1, 0, np.empty((0, NSTD))
     # backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one
     x_s = np.empty((n, N))
     x_s[n - 1] = x_filt[n - 1]
@@ -460,6 +528,9 @@ def ski_ekf_rts(
     E = np.empty((N, N))
     dx = np.empty(N)
     L = np.zeros((N, N))
+    std = np.empty((n, NSTD))
+    J = np.empty((3, 7))
+    _std_row(x_s[n - 1], Ps, mno, std[n - 1], M, D, J)
     for k in range(n - 2, -1, -1):
         _unpack(Pbuf[k], Pf)
         dt = t[k + 1] - t[k]
@@ -467,9 +538,9 @@ def ski_ekf_rts(
         _predict_cov(Pf, Phi, Qd, Pp, T)
         for i in range(N):
             if not (Pp[i, i] > 0.0):
-                return x_filt, x_s, Pbuf, resid, k + 1, 2
+                return x_filt, x_s, Pbuf, resid, k + 1, 2, np.empty((0, NSTD))
         if not _chol(Pp, L):
-            return x_filt, x_s, Pbuf, resid, k + 1, 2
+            return x_filt, x_s, Pbuf, resid, k + 1, 2, np.empty((0, NSTD))
         # The parameter rows of Phi are [0 I] and Qd has no parameter part, so Pp[:, 10:] =
         # (Phi Pf)[:, 10:] and the gain is C = [[C_top], [0 I]]: only C_top = rows 0..9 of
         # Pf Phi^T Pp^{-1} is solved for.  Ct10 = Pp^{-1} (Phi Pf)[:, :10] = C_top^T (22 x 10).
@@ -541,4 +612,5 @@ def ski_ekf_rts(
                 Ps[i, j] = s
                 Ps[j, i] = s
         _pack(Ps, Pbuf[k])
-    return x_filt, x_s, Pbuf, resid, -1, 0
+        _std_row(x_s[k], Ps, mno, std[k], M, D, J)
+    return x_filt, x_s, Pbuf, resid, -1, 0, std

@@ -100,9 +100,16 @@ class SmootherConfig:
     estimate_latency: bool = True  # GNSS time-stamp latency from the first pass (skijump.alignment)
     latency_min: float = 0.02  # smaller latency estimates are not applied (the estimate's noise: ~0.01 s)
     inrun_align: bool = True  # initial attitude from the in-run (skijump.alignment), else QUEST at the rest
+    # the run over the start window when the in-run alignment gave the attitude: "forward" (an EKF run; the
+    # biases and the gyro-carried attitude at its end start the whole pass) or "smoothed" (a smoothed run)
+    start_pass: str = "forward"
     pass_tol_deg: float = 0.05
     pass_window: float = 15.0
     pass_after_takeoff: float = 3.0
+
+
+#: allowed values of the text settings
+CHOICES = {"start_pass": ("forward", "smoothed")}
 
 
 def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> SmootherConfig:
@@ -127,7 +134,10 @@ def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> 
         if key not in known:
             raise InputError(f"config {path}: unknown key {key!r}; expected one of {', '.join(known)}")
         old = values[key]
-        if isinstance(old, bool):
+        if isinstance(old, str):
+            if val not in CHOICES.get(key, ()):
+                raise InputError(f"config {path}: {key} must be one of {', '.join(CHOICES[key])}")
+        elif isinstance(old, bool):
             if not isinstance(val, bool):
                 raise InputError(f"config {path}: {key} must be true or false")
         elif isinstance(old, tuple):
