@@ -58,6 +58,22 @@ def test_ned_and_hill_frame_agree_with_pymap3d_within_5km(origin: tuple[float, f
     assert np.abs(np.stack([x, y, z], axis=-1) - ref).max() < 1e-3
 
 
+@pytest.mark.parametrize("origin", [ORIGIN, (-33.9, 151.2, 50.0), (69.6, 18.9, 10.0), (0.0, -179.9, -20.0)])
+def test_forward_conversion_equals_the_pyproj_pipeline(origin: tuple[float, float, float]) -> None:
+    """The numpy geodetic -> NED is pyproj's cart + topocentric computation (to 1e-6 m within 20 km)."""
+    from pyproj import Transformer
+
+    lat, lon, h = points_around(origin, 20000.0)
+    n, e, d = geodetic_to_ned(lat, lon, h, origin)
+    tr = Transformer.from_pipeline(
+        "+proj=pipeline +step +proj=cart +ellps=WGS84 "
+        f"+step +proj=topocentric +ellps=WGS84 +lat_0={origin[0]!r} +lon_0={origin[1]!r} +h_0={origin[2]!r}"
+    )
+    pe, pn, pu = tr.transform(lon, lat, h)
+    assert np.abs(np.stack([n - pn, e - pe, d + pu])).max() < 1e-6
+    assert np.isnan(geodetic_to_ned(np.nan, 10.0, 0.0, origin)[0])
+
+
 def test_round_trips_below_1mm() -> None:
     lat, lon, h = points_around(ORIGIN, 5000.0)
     x, y, z = geodetic_to_local(lat, lon, h, ORIGIN, PSI)

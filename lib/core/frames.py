@@ -3,9 +3,10 @@
 Frames (``docs/frames.md``; ski-jumping paper §3.3.1)
 --------------------------------------------------------------------
 * NED: origin at a geodetic point ``(lat0, lon0, h0)``, axes north, east, down
-  [m], exact through pyproj's ``cart`` + ``topocentric`` pipeline (ellipsoidal
-  heights, WGS84).  Input order of that pipeline is lon, lat, h; it returns
-  E, N, U; NED = (N, E, -U).
+  [m], exact: WGS84 geodetic -> ECEF in closed form and the topocentric rotation
+  (ellipsoidal heights) -- what pyproj's ``cart`` + ``topocentric`` pipeline
+  computes, done in numpy for the forward direction; the inverse uses that
+  pyproj pipeline (input lon, lat, h; it returns E, N, U; NED = (N, E, -U)).
 * local / hill frame: the NED frame turned about the down axis by the azimuth
   ``psi`` (clockwise from north to the frame's x axis): x forward, y right,
   z down.  The ski-jumping hill frame is this frame with the origin at the
@@ -160,7 +161,9 @@ def _arrays(*vals: Any) -> list[np.ndarray]:
 def geodetic_to_ned(
     lat: np.ndarray, lon: np.ndarray, h: np.ndarray, origin: tuple[float, float, float]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """WGS84 geodetic -> NED about ``origin`` (exact, pyproj ``cart`` + ``topocentric``).
+    """WGS84 geodetic -> NED about ``origin`` (exact: the closed-form geodetic -> ECEF conversion and the
+    topocentric rotation, the computation of pyproj's ``cart`` + ``topocentric`` pipeline, in numpy so that a
+    command does not import pyproj; equal to pyproj to ~1e-9 m, ``tests/test_frames.py``).
 
     Parameters
     ----------
@@ -177,8 +180,26 @@ def geodetic_to_ned(
         NaN where an input is NaN.
     """
     lat, lon, h = _arrays(lat, lon, h)
-    e, n, u = _topocentric(*map(float, origin)).transform(lon, lat, h)
-    return np.asarray(n, float), np.asarray(e, float), -np.asarray(u, float)
+    x, y, z = _ecef(np.radians(lat), np.radians(lon), h)
+    p0, l0 = math.radians(float(origin[0])), math.radians(float(origin[1]))
+    x0, y0, z0 = _ecef(p0, l0, float(origin[2]))
+    dx, dy, dz = x - x0, y - y0, z - z0
+    sp, cp, sl, cl = math.sin(p0), math.cos(p0), math.sin(l0), math.cos(l0)
+    n = -sp * cl * dx - sp * sl * dy + cp * dz
+    e = -sl * dx + cl * dy
+    d = -(cp * cl * dx + cp * sl * dy + sp * dz)
+    return n, e, d
+
+
+def _ecef(lat: Any, lon: Any, h: Any) -> tuple[Any, Any, Any]:
+    """WGS84 geodetic (lat, lon [rad], h [m]) -> Earth-centred Earth-fixed (X, Y, Z) [m] (closed form)."""
+    s, c = np.sin(lat), np.cos(lat)
+    nu = WGS84_A / np.sqrt(1.0 - _E2 * s * s)  # prime-vertical radius of curvature
+    return (nu + h) * c * np.cos(lon), (nu + h) * c * np.sin(lon), (nu * (1.0 - _E2) + h) * s
+
+
+_F = 1.0 / 298.257223563  # WGS84 flattening (PROJ's ellps=WGS84)
+_E2 = _F * (2.0 - _F)  # first eccentricity squared, from the flattening as PROJ derives it
 
 
 def ned_to_geodetic(

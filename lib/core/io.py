@@ -213,7 +213,8 @@ def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
     md = dict(table.schema.metadata or {})
     md.pop(b"pandas", None)
     md[_meta.KEY] = _meta.encode(meta)
-    return table.cast(pa.schema(fields, metadata=md))
+    # same types, new field and schema metadata: rebuilt from the columns (no cast, so no pyarrow.compute)
+    return pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=md))
 
 
 def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:

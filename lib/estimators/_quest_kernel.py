@@ -12,7 +12,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from sportfusion.core._numba import preload_cython_blas
+
+preload_cython_blas()  # before numba: its BLAS check then skips importing the scipy.linalg package
+from numba import njit  # noqa: E402
 
 
 @njit(cache=True)
