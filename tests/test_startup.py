@@ -68,3 +68,15 @@ def test_probe_detects_a_heavy_import() -> None:
         check=True,
     )
     assert res.stdout.strip() == "True"
+
+
+def test_commands_run_blas_on_one_thread_unless_the_user_says_otherwise() -> None:
+    import os
+
+    prog = "import os, sportfusion.tools; print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'])"
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", prog], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["1", "1"]
+    env["OPENBLAS_NUM_THREADS"] = "4"
+    out = subprocess.run([sys.executable, "-c", prog], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["4", "1"]
