@@ -14,7 +14,8 @@ and the peer measured in this same run:
 4. Start-up: every command's ``--help`` and a no-op stage (``inspect`` on a 20-row table) against
    ``python -c "import numpy, pyarrow"`` (the floor), best of 3.
 
-Run: ``python bench/bench_commands.py [--quick]`` (``--quick``: 5 jumps, 2e5 epochs, no filterpy).
+Run: ``python bench/bench_commands.py [--quick] [--only rts,spline]`` (``--quick``: 5 jumps, 2e5 epochs, no
+filterpy; ``--only``: some of startup, pf, spline, rts).
 """
 
 from __future__ import annotations
@@ -234,14 +235,23 @@ def startup(folder: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller inputs, no filterpy")
+    parts = ("startup", "pf", "spline", "rts")
+    ap.add_argument("--only", default=",".join(parts), help=f"comma-separated parts to run, of {', '.join(parts)}")
     a = ap.parse_args()
+    only = {p.strip() for p in a.only.split(",") if p.strip()}
+    if not only <= set(parts):
+        ap.error(f"--only: unknown part(s) {', '.join(sorted(only - set(parts)))}; expected {', '.join(parts)}")
     print(f"{os.cpu_count()} CPU(s); CPU time = user + system of the command's process (os.wait4)")
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
-        startup(folder)
-        pf(folder)
-        spline(folder, a.quick)
-        rts(folder, a.quick)
+        if "startup" in only:
+            startup(folder)
+        if "pf" in only:
+            pf(folder)
+        if "spline" in only:
+            spline(folder, a.quick)
+        if "rts" in only:
+            rts(folder, a.quick)
     print("timings on a shared machine are noisy: CPU time is the figure to compare")
 
 
