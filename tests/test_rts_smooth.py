@@ -229,8 +229,19 @@ def test_two_jumps_in_one_session():
     assert np.abs(got - want).max() < 1.0, (got, want)
 
 
-def test_compiled_engine_equals_reference_engine():
-    """The numba loop (packed covariances, scalar updates) reproduces ekf_rts with the model callables."""
+def _native_built() -> bool:
+    from sportfusion.skijump import _ski_native
+
+    return _ski_native.native() is not None
+
+
+@pytest.mark.parametrize(
+    "engine",
+    ["numba", pytest.param("c", marks=pytest.mark.skipif(not _native_built(), reason="C extension not built"))],
+)
+def test_compiled_engine_equals_reference_engine(engine: str) -> None:
+    """The compiled loops (numba; C) -- packed covariances, scalar updates -- reproduce ekf_rts with the model
+    callables."""
     pytest.importorskip("numba")
     from sportfusion.skijump import smoother as R
     from sportfusion.skijump import smoother_inputs as RI
@@ -240,7 +251,7 @@ def test_compiled_engine_equals_reference_engine():
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
     inp, _ = RI.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
-    a = R.smooth_inputs(inp, hill, cfg, engine="numba")
+    a = R.smooth_inputs(inp, hill, cfg, engine=engine)
     b = R.smooth_inputs(inp, hill, cfg, engine="numpy")
     np.testing.assert_allclose(a.x_filt, b.x_filt, rtol=0, atol=1e-9)
     np.testing.assert_allclose(a.x_smooth, b.x_smooth, rtol=0, atol=1e-9)
@@ -275,7 +286,7 @@ def test_relinearisation_passes_recover_a_bad_start():
     assert 2 <= m["rts"]["passes"][0] <= SmootherConfig().passes + 1
 
 
-@pytest.mark.parametrize("engine", ["numba", "numpy"])
+@pytest.mark.parametrize("engine", ["numba", "numpy", "auto"])
 def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
     """A hard c_q on a quaternion given zero prior variance: the innovation variance is zero at step 0."""
     from sportfusion.core.errors import InputError

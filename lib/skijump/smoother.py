@@ -238,7 +238,13 @@ class Smoothed:
     std: np.ndarray | None = None
 
 
-def _fast_engine():  # noqa: ANN202
+def _fast_engine(prefer_native: bool = True):  # noqa: ANN202
+    """The compiled loop: the C extension (:mod:`sportfusion.skijump._ski_native`) when it is built, else
+    numba's (:mod:`sportfusion.skijump.smoother_fast`), else None (the numpy reference path)."""
+    from sportfusion.skijump import _ski_native
+
+    if prefer_native and _ski_native.native() is not None:
+        return _ski_native
     try:
         from sportfusion.skijump import smoother_fast as skijump_fast
     except ImportError:  # numba missing: the numpy reference path
@@ -350,11 +356,12 @@ def smooth_inputs(
 
     Parameters
     ----------
-    engine : {"auto", "numba", "numpy"}
+    engine : {"auto", "c", "numba", "numpy"}
         ``numpy``: :func:`sportfusion.estimators.kalman.ekf_rts` with the model callables (the
         reference); ``numba``: the compiled loop of
         :mod:`sportfusion.skijump.smoother_fast` (same equations, packed
-        covariances); ``auto``: numba when it is installed.
+        covariances); ``c``: the same loop as a C extension (:mod:`sportfusion.skijump._ski_native`);
+        ``auto``: C when it is built, else numba when it is installed.
 
     A session whose IMU stops for more than ``cfg.max_gap`` seconds is smoothed in
     independent segments (each initialised from its own first samples); the
@@ -369,9 +376,11 @@ def smooth_inputs(
     less than ``cfg.pass_tol_deg`` [deg]: this re-linearises the start, where an attitude
     error of degrees leaves the EKF's linear regime (``bench/bench_rts_accuracy.py --init``).
     """
-    fast = _fast_engine() if engine in ("auto", "numba") else None
-    if engine == "numba" and fast is None:
+    fast = _fast_engine(prefer_native=engine in ("auto", "c")) if engine in ("auto", "numba", "c") else None
+    if engine == "numba" and (fast is None or not fast.__name__.endswith("smoother_fast")):
         raise InputError("engine numba requested but numba is not installed; expected pip install numba")
+    if engine == "c" and (fast is None or fast.__name__.endswith("smoother_fast")):
+        raise InputError("engine c requested but the C extension is not built; expected pip install -e . with gcc")
     xfs, xss, covs, resids, npass, lat, stds = [], [], [], [], [], [], []
     for a, b in segments(inp.t, cfg.max_gap):
         lat.append(None)

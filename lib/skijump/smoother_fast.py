@@ -38,13 +38,11 @@ from sportfusion.core._numba import preload_cython_blas
 preload_cython_blas()  # before numba: its BLAS check then skips importing the scipy.linalg package
 from numba import njit  # noqa: E402
 
-N = 22
-NP = N * (N + 1) // 2
+from sportfusion.skijump._ski_native import NP, NSTD, RESIDUALS, N, unpack_many  # noqa: E402, F401  (the shared layout)
+
 #: fast-math flags: re-association (vectorised sums) but no "no-NaN/no-inf" assumption, so the
 #: finiteness checks stay.
 _FM = {"reassoc", "contract", "arcp", "nsz"}
-#: Residual blocks returned by :func:`ski_ekf_rts` (name, width).
-RESIDUALS = (("c_q", 1), ("gnss_pos", 3), ("gnss_vel", 3), ("mag", 3), ("c_v_ir", 1), ("c_h_ir", 1), ("c_v_la", 1))
 
 
 @njit(cache=True)
@@ -64,16 +62,6 @@ def _unpack(p, P):
             P[i, j] = p[m]
             P[j, i] = p[m]
             m += 1
-
-
-def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
-    """Packed covariances (n, 253) -> full (n, k, k) over the state indices ``idx`` (default all 22)."""
-    iu = np.triu_indices(N)
-    full_idx = np.arange(N) if idx is None else np.asarray(idx)
-    pos = np.zeros((N, N), dtype=np.int64)
-    pos[iu] = np.arange(NP)
-    pos = np.maximum(pos, pos.T)
-    return packed[:, pos[np.ix_(full_idx, full_idx)]]
 
 
 @njit(cache=True)
@@ -328,11 +316,6 @@ def _ok(P):
         if not (P[i, i] > 0.0) or not np.isfinite(P[i, i]):
             return False
     return True
-
-
-#: Columns of the standard-deviation rows returned by :func:`ski_ekf_rts`: the 22 states, the hill-frame
-#: velocity (3) and roll, pitch, yaw (3).
-NSTD = N + 6
 
 
 @njit(cache=True)

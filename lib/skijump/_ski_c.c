@@ -1,0 +1,588 @@
+/* The ski-jump EKF + RTS loop (sportfusion.skijump.smoother_fast.ski_ekf_rts) as a C extension.
+ *
+ * Why C as well as numba: rts-smooth pays numba's import and the building of its CPU target context
+ * on every run (about 0.7 s of CPU, more than the smoothing of a 60k-step session); this module
+ * imports in about a millisecond.  Same equations, same operation order as the numba kernel (which
+ * stays the fallback when this extension is not built, and which the tests compare it with); see
+ * smoother_fast.py's module text for the arithmetic (scalar updates in the expanded Joseph form,
+ * packed covariances, the parameter rows of the RTS gain known).
+ *
+ * Arrays travel through the buffer protocol (no numpy headers needed to build); the Python side
+ * (sportfusion.skijump._ski_native) passes C-contiguous float64 arrays and preallocated outputs.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <string.h>
+
+#define N 22
+#define NP 253
+#define NSTD 28
+#define NPAR 22
+
+typedef struct {
+    Py_buffer view;
+    int held;
+} Buf;
+
+/* count < 0: any number of items (at least -count) */
+static int get_buf(PyObject *obj, Buf *b, Py_ssize_t count, int writable, const char *name) {
+    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+    b->held = 0;
+    if (PyObject_GetBuffer(obj, &b->view, flags) < 0) return -1;
+    b->held = 1;
+    if (b->view.itemsize != 8 || (count >= 0 && b->view.len != 8 * count) || (count < 0 && b->view.len < 8 * -count)) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd float64 items, got %zd bytes", name, count, b->view.len);
+        return -1;
+    }
+    return 0;
+}
+
+static void mbo(const double *q, double M[3][3]) {
+    double q0 = q[0], q1 = q[1], q2 = q[2], q3 = q[3];
+    M[0][0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3;
+    M[0][1] = 2 * (q1 * q2 + q0 * q3);
+    M[0][2] = 2 * (q1 * q3 - q0 * q2);
+    M[1][0] = 2 * (q1 * q2 - q0 * q3);
+    M[1][1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3;
+    M[1][2] = 2 * (q2 * q3 + q0 * q1);
+    M[2][0] = 2 * (q0 * q2 + q1 * q3);
+    M[2][1] = 2 * (q2 * q3 - q0 * q1);
+    M[2][2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3;
+}
+
+static void dmdq(const double *q, double D[4][3][3]) {
+    double q0 = 2 * q[0], q1 = 2 * q[1], q2 = 2 * q[2], q3 = 2 * q[3];
+    D[0][0][0] = q0; D[0][0][1] = q3; D[0][0][2] = -q2;
+    D[0][1][0] = -q3; D[0][1][1] = q0; D[0][1][2] = q1;
+    D[0][2][0] = q2; D[0][2][1] = -q1; D[0][2][2] = q0;
+    D[1][0][0] = q1; D[1][0][1] = q2; D[1][0][2] = q3;
+    D[1][1][0] = q2; D[1][1][1] = -q1; D[1][1][2] = q0;
+    D[1][2][0] = q3; D[1][2][1] = -q0; D[1][2][2] = -q1;
+    D[2][0][0] = -q2; D[2][0][1] = q1; D[2][0][2] = -q0;
+    D[2][1][0] = q1; D[2][1][1] = q2; D[2][1][2] = q3;
+    D[2][2][0] = q0; D[2][2][1] = q3; D[2][2][2] = -q2;
+    D[3][0][0] = -q3; D[3][0][1] = q0; D[3][0][2] = q1;
+    D[3][1][0] = -q0; D[3][1][1] = -q3; D[3][1][2] = q2;
+    D[3][2][0] = q1; D[3][2][1] = q2; D[3][2][2] = q3;
+}
+
+/* the kinematics (eqs 22, 44-46) */
+static void f_kin(const double *x, const double *u, double g0, const double *mno, double *out) {
+    double M[3][3];
+    for (int i = 0; i < N; i++) out[i] = 0.0;
+    mbo(x + 6, M);
+    double wx = u[0] - x[10], wy = u[1] - x[11], wz = u[2] - x[12];
+    double vx = x[3], vy = x[4], vz = x[5];
+    double vo0 = M[0][0] * vx + M[1][0] * vy + M[2][0] * vz;
+    double vo1 = M[0][1] * vx + M[1][1] * vy + M[2][1] * vz;
+    double vo2 = M[0][2] * vx + M[1][2] * vy + M[2][2] * vz;
+    for (int i = 0; i < 3; i++) out[i] = mno[3 * i] * vo0 + mno[3 * i + 1] * vo1 + mno[3 * i + 2] * vo2;
+    out[3] = u[3] - x[13] + g0 * M[0][2] - (wy * vz - wz * vy);
+    out[4] = u[4] - x[14] + g0 * M[1][2] - (wz * vx - wx * vz);
+    out[5] = u[5] - x[15] + g0 * M[2][2] - (wx * vy - wy * vx);
+    double q0 = x[6], q1 = x[7], q2 = x[8], q3 = x[9];
+    out[6] = 0.5 * (-q1 * wx - q2 * wy - q3 * wz);
+    out[7] = 0.5 * (q0 * wx - q3 * wy + q2 * wz);
+    out[8] = 0.5 * (q3 * wx + q0 * wy - q1 * wz);
+    out[9] = 0.5 * (-q2 * wx + q1 * wy + q0 * wz);
+}
+
+static void rk4(const double *x, const double *u0, const double *u1, double dt, double g0, const double *mno,
+                double *out) {
+    double k1[N], k2[N], k3[N], k4[N], xt[N], um[6];
+    for (int i = 0; i < 6; i++) um[i] = 0.5 * (u0[i] + u1[i]);
+    f_kin(x, u0, g0, mno, k1);
+    for (int i = 0; i < N; i++) xt[i] = x[i] + 0.5 * dt * k1[i];
+    f_kin(xt, um, g0, mno, k2);
+    for (int i = 0; i < N; i++) xt[i] = x[i] + 0.5 * dt * k2[i];
+    f_kin(xt, um, g0, mno, k3);
+    for (int i = 0; i < N; i++) xt[i] = x[i] + dt * k3[i];
+    f_kin(xt, u1, g0, mno, k4);
+    for (int i = 0; i < N; i++) out[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+}
+
+/* top rows of Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T (eqs 7, 9, 13) */
+static void phi_qd(const double *x, const double *u, double dt, double g0, const double *mno, const double *qd,
+                   double Phi[10][N], double Qd[10][10]) {
+    double A[10][N], F[10][6], G[10][6], M[3][3], D[4][3][3];
+    memset(A, 0, sizeof(A));
+    mbo(x + 6, M);
+    dmdq(x + 6, D);
+    const double *v = x + 3;
+    double q0 = x[6], q1 = x[7], q2 = x[8], q3 = x[9];
+    double wx = u[0] - x[10], wy = u[1] - x[11], wz = u[2] - x[12];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            A[i][3 + j] = mno[3 * i] * M[j][0] + mno[3 * i + 1] * M[j][1] + mno[3 * i + 2] * M[j][2];
+    for (int k = 0; k < 4; k++) {
+        double t0 = D[k][0][0] * v[0] + D[k][1][0] * v[1] + D[k][2][0] * v[2];
+        double t1 = D[k][0][1] * v[0] + D[k][1][1] * v[1] + D[k][2][1] * v[2];
+        double t2 = D[k][0][2] * v[0] + D[k][1][2] * v[1] + D[k][2][2] * v[2];
+        for (int i = 0; i < 3; i++) A[i][6 + k] = mno[3 * i] * t0 + mno[3 * i + 1] * t1 + mno[3 * i + 2] * t2;
+        for (int i = 0; i < 3; i++) A[3 + i][6 + k] = g0 * D[k][i][2];
+    }
+    A[3][4] = wz; A[3][5] = -wy;
+    A[4][3] = -wz; A[4][5] = wx;
+    A[5][3] = wy; A[5][4] = -wx;
+    A[3][11] = v[2]; A[3][12] = -v[1];
+    A[4][10] = -v[2]; A[4][12] = v[0];
+    A[5][10] = v[1]; A[5][11] = -v[0];
+    for (int i = 0; i < 3; i++) A[3 + i][13 + i] = -1.0;
+    A[6][7] = -0.5 * wx; A[6][8] = -0.5 * wy; A[6][9] = -0.5 * wz;
+    A[7][6] = 0.5 * wx; A[7][8] = 0.5 * wz; A[7][9] = -0.5 * wy;
+    A[8][6] = 0.5 * wy; A[8][7] = -0.5 * wz; A[8][9] = 0.5 * wx;
+    A[9][6] = 0.5 * wz; A[9][7] = 0.5 * wy; A[9][8] = -0.5 * wx;
+    double xi0[3] = {-q1, -q2, -q3}, xi1[3] = {q0, -q3, q2}, xi2[3] = {q3, q0, -q1}, xi3[3] = {-q2, q1, q0};
+    for (int j = 0; j < 3; j++) {
+        A[6][10 + j] = -0.5 * xi0[j];
+        A[7][10 + j] = -0.5 * xi1[j];
+        A[8][10 + j] = -0.5 * xi2[j];
+        A[9][10 + j] = -0.5 * xi3[j];
+    }
+    memset(F, 0, sizeof(F));
+    for (int i = 3; i < 10; i++)
+        for (int j = 0; j < 3; j++) F[i][j] = A[i][10 + j];
+    for (int i = 0; i < 3; i++) F[3 + i][3 + i] = -1.0;
+    for (int i = 0; i < 10; i++) {
+        for (int j = 0; j < N; j++) {
+            double a2 = 0.0;
+            for (int m = 0; m < 10; m++) a2 += A[i][m] * A[m][j];
+            Phi[i][j] = A[i][j] * dt + 0.5 * dt * dt * a2;
+        }
+        Phi[i][i] += 1.0;
+    }
+    for (int i = 0; i < 10; i++)
+        for (int j = 0; j < 6; j++) {
+            double af = 0.0;
+            for (int m = 0; m < 10; m++) af += A[i][m] * F[m][j];
+            G[i][j] = dt * F[i][j] + 0.5 * dt * dt * af;
+        }
+    for (int i = 0; i < 10; i++)
+        for (int j = i; j < 10; j++) {
+            double s = 0.0;
+            for (int m = 0; m < 6; m++) s += G[i][m] * qd[m] * G[j][m];
+            Qd[i][j] = s;
+            Qd[j][i] = s;
+        }
+}
+
+/* out = Phi P Phi^T + Qd with Phi = [[Phi_top], [0 I]] */
+static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], double out[N][N]) {
+    double T[10][N];
+    memset(T, 0, sizeof(T));
+    for (int i = 0; i < 10; i++)
+        for (int m = 0; m < N; m++) {
+            double a = Phi[i][m];
+            if (a != 0.0)
+                for (int j = 0; j < N; j++) T[i][j] += a * P[m][j];
+        }
+    for (int i = 0; i < 10; i++) {
+        for (int j = i; j < 10; j++) {
+            double s = Qd[i][j];
+            for (int m = 0; m < N; m++) s += T[i][m] * Phi[j][m];
+            out[i][j] = s;
+            out[j][i] = s;
+        }
+        for (int j = 10; j < N; j++) {
+            out[i][j] = T[i][j];
+            out[j][i] = T[i][j];
+        }
+    }
+    for (int i = 10; i < N; i++)
+        for (int j = i; j < N; j++) {
+            out[i][j] = P[i][j];
+            out[j][i] = P[i][j];
+        }
+}
+
+/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite */
+static int scalar(double *x, double P[N][N], const double *xp, const double *h, double r0, double var) {
+    double Ph[N], k[N];
+    double r = r0;
+    for (int i = 0; i < N; i++)
+        if (h[i] != 0.0) r -= h[i] * (x[i] - xp[i]);
+    for (int i = 0; i < N; i++) Ph[i] = 0.0;
+    for (int m = 0; m < N; m++) {
+        double a = h[m];
+        if (a != 0.0)
+            for (int i = 0; i < N; i++) Ph[i] += P[m][i] * a;
+    }
+    double s0 = 0.0;
+    for (int i = 0; i < N; i++) s0 += h[i] * Ph[i];
+    double s = s0 + var;
+    if (!(s > 0.0)) return 0;
+    for (int i = 0; i < N; i++) k[i] = Ph[i] / s;
+    for (int i = 0; i < N; i++) x[i] += k[i] * r;
+    for (int i = 0; i < N; i++)
+        for (int j = i; j < N; j++) {
+            double v = P[i][j] - k[i] * Ph[j] - Ph[i] * k[j] + s * k[i] * k[j];
+            P[i][j] = v;
+            P[j][i] = v;
+        }
+    return 1;
+}
+
+static void profile(double x, double x0, double step, const double *z, const double *dz, Py_ssize_t nz, double *zo,
+                    double *dzo) {
+    double f = (x - x0) / step;
+    Py_ssize_t i;
+    if (!(f >= 0.0))
+        i = 0;
+    else if (f > (double)(nz - 2))
+        i = nz - 2;
+    else
+        i = (Py_ssize_t)f;
+    double a = f - (double)i;
+    *zo = (1 - a) * z[i] + a * z[i + 1];
+    *dzo = (1 - a) * dz[i] + a * dz[i + 1];
+}
+
+static int chol(double A[N][N], double L[N][N]) {
+    for (int j = 0; j < N; j++) {
+        double s = A[j][j];
+        for (int m = 0; m < j; m++) s -= L[j][m] * L[j][m];
+        if (!(s > 0.0) || !isfinite(s)) return 0;
+        double d = sqrt(s);
+        L[j][j] = d;
+        for (int i = j + 1; i < N; i++) {
+            double v = A[i][j];
+            for (int m = 0; m < j; m++) v -= L[i][m] * L[j][m];
+            L[i][j] = v / d;
+        }
+    }
+    return 1;
+}
+
+static int pd_diag(double P[N][N]) {
+    for (int i = 0; i < N; i++)
+        if (!(P[i][i] > 0.0) || !isfinite(P[i][i])) return 0;
+    return 1;
+}
+
+static void pack(double P[N][N], double *out) {
+    int m = 0;
+    for (int i = 0; i < N; i++)
+        for (int j = i; j < N; j++) out[m++] = P[i][j];
+}
+
+static void unpack(const double *p, double P[N][N]) {
+    int m = 0;
+    for (int i = 0; i < N; i++)
+        for (int j = i; j < N; j++) {
+            P[i][j] = p[m];
+            P[j][i] = p[m];
+            m++;
+        }
+}
+
+static double sqrt0(double v) { return v >= 0.0 ? sqrt(v) : (v < 0.0 ? 0.0 : v); }
+
+/* standard deviations at one step: the states' (22), the hill-frame velocity's (3), roll/pitch/yaw's (3) */
+static void std_row(const double *x, double P[N][N], const double *mno, double *out) {
+    double M[3][3], D[4][3][3], J[3][7];
+    for (int i = 0; i < N; i++) out[i] = sqrt0(P[i][i]);
+    mbo(x + 6, M);
+    dmdq(x + 6, D);
+    for (int a = 0; a < 3; a++) {
+        for (int j = 0; j < 3; j++) J[a][j] = mno[3 * a] * M[j][0] + mno[3 * a + 1] * M[j][1] + mno[3 * a + 2] * M[j][2];
+        for (int k = 0; k < 4; k++) {
+            double s = 0.0;
+            for (int b = 0; b < 3; b++) s += mno[3 * a + b] * (D[k][0][b] * x[3] + D[k][1][b] * x[4] + D[k][2][b] * x[5]);
+            J[a][3 + k] = s;
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        double s = 0.0;
+        for (int i = 0; i < 7; i++)
+            for (int j = 0; j < 7; j++) s += J[a][i] * P[3 + i][3 + j] * J[a][j];
+        out[N + a] = sqrt0(s);
+    }
+    double q0 = x[6], q1 = x[7], q2 = x[8], q3 = x[9];
+    double n2 = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3;
+    double m12 = 2 * (q2 * q3 + q0 * q1), m22 = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3;
+    double m01 = 2 * (q1 * q2 + q0 * q3), m00 = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3;
+    double m02 = 2 * (q1 * q3 - q0 * q2);
+    double r1 = m12 * m12 + m22 * m22, r2 = m01 * m01 + m00 * m00;
+    double sp = -m02 / n2;
+    double c = sqrt(fmax(1.0 - sp * sp, 1e-300));
+    double qq[4] = {q0, q1, q2, q3};
+    double d12[4] = {2 * q1, 2 * q0, 2 * q3, 2 * q2}, d22[4] = {2 * q0, -2 * q1, -2 * q2, 2 * q3};
+    double d01[4] = {2 * q3, 2 * q2, 2 * q1, 2 * q0}, d00[4] = {2 * q0, 2 * q1, -2 * q2, -2 * q3};
+    double d02[4] = {-2 * q2, 2 * q3, -2 * q0, 2 * q1};
+    for (int i = 0; i < 4; i++) {
+        J[0][i] = (m22 * d12[i] - m12 * d22[i]) / r1;
+        J[1][i] = -(d02[i] * n2 - m02 * 2 * qq[i]) / (n2 * n2) / c;
+        J[2][i] = (m00 * d01[i] - m01 * d00[i]) / r2;
+    }
+    for (int a = 0; a < 3; a++) {
+        double s = 0.0;
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++) s += J[a][i] * P[6 + i][6 + j] * J[a][j];
+        out[N + 3 + a] = sqrt0(s);
+    }
+}
+
+/* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
+static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
+                      const double *mag, const double *inrun, const double *landing, const double *x0, const double *P0,
+                      const double *mno, const double *m_o, const double *qd, const double *irz, const double *irdz,
+                      Py_ssize_t nir, const double *laz, const double *ladz, Py_ssize_t nla, const double *par,
+                      double *x_filt, double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, int *phase) {
+    double g0 = par[0], rmag = par[7], rcq = par[8], rir = par[9], rhir = par[10], rla = par[11];
+    const double *rpos = par + 1, *rvel = par + 4;
+    double ir_x0 = par[12], ir_step = par[13], la_x0 = par[14], la_step = par[15];
+    int use_hill = par[16] != 0.0, use_vel = par[17] != 0.0, use_mag = par[18] != 0.0, smooth = par[19] != 0.0;
+    double P[N][N], Pn[N][N], Phi[10][N], Qd[10][10], M[3][3], D[4][3][3];
+    double x[N], xn[N], xp[N], h[N];
+    memcpy(x, x0, sizeof(x));
+    memcpy(P, P0, sizeof(P));
+    *phase = 0;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double *rk = resid + 13 * k;
+        memcpy(xp, x, sizeof(xp));
+        memcpy(x_pred + N * k, xp, sizeof(xp));
+        double nq = sqrt(xp[6] * xp[6] + xp[7] * xp[7] + xp[8] * xp[8] + xp[9] * xp[9]);
+        memset(h, 0, sizeof(h));
+        for (int i = 0; i < 4; i++) h[6 + i] = xp[6 + i] / nq;
+        rk[0] = -(nq - 1.0);
+        if (!scalar(x, P, xp, h, -(nq - 1.0), rcq)) return k;
+        if (isfinite(pos[3 * k])) {
+            for (int i = 0; i < 3; i++) {
+                memset(h, 0, sizeof(h));
+                h[i] = 1.0;
+                double r0 = pos[3 * k + i] - xp[i];
+                rk[1 + i] = r0;
+                if (!scalar(x, P, xp, h, r0, rpos[i])) return k;
+            }
+        }
+        if (use_vel && isfinite(vel[3 * k])) {
+            mbo(xp + 6, M);
+            dmdq(xp + 6, D);
+            for (int i = 0; i < 3; i++) {
+                memset(h, 0, sizeof(h));
+                double hv = 0.0;
+                for (int j = 0; j < 3; j++) {
+                    h[3 + j] = M[j][i];
+                    hv += M[j][i] * xp[3 + j];
+                }
+                for (int kk = 0; kk < 4; kk++) h[6 + kk] = D[kk][0][i] * xp[3] + D[kk][1][i] * xp[4] + D[kk][2][i] * xp[5];
+                double r0 = vel[3 * k + i] - hv;
+                rk[4 + i] = r0;
+                if (!scalar(x, P, xp, h, r0, rvel[i])) return k;
+            }
+        }
+        if (use_mag && isfinite(mag[3 * k])) {
+            mbo(xp + 6, M);
+            dmdq(xp + 6, D);
+            for (int i = 0; i < 3; i++) {
+                memset(h, 0, sizeof(h));
+                double mb = M[i][0] * m_o[0] + M[i][1] * m_o[1] + M[i][2] * m_o[2];
+                double s = 1.0 + xp[19 + i];
+                for (int kk = 0; kk < 4; kk++)
+                    h[6 + kk] = s * (D[kk][i][0] * m_o[0] + D[kk][i][1] * m_o[1] + D[kk][i][2] * m_o[2]);
+                h[16 + i] = 1.0;
+                h[19 + i] = mb;
+                double r0 = mag[3 * k + i] - (s * mb + xp[16 + i]);
+                rk[7 + i] = r0;
+                if (!scalar(x, P, xp, h, r0, rmag)) return k;
+            }
+        }
+        if (use_hill) {
+            double z, dz;
+            if (inrun[k] != 0.0) {
+                profile(xp[0], ir_x0, ir_step, irz, irdz, nir, &z, &dz);
+                memset(h, 0, sizeof(h));
+                h[0] = -dz;
+                h[2] = 1.0;
+                rk[10] = z - xp[2];
+                if (!scalar(x, P, xp, h, z - xp[2], rir)) return k;
+                memset(h, 0, sizeof(h));
+                h[1] = 1.0;
+                rk[11] = -xp[1];
+                if (!scalar(x, P, xp, h, -xp[1], rhir)) return k;
+            }
+            if (landing[k] > 0.0) {
+                profile(xp[0], la_x0, la_step, laz, ladz, nla, &z, &dz);
+                memset(h, 0, sizeof(h));
+                h[0] = -dz;
+                h[2] = 1.0;
+                rk[12] = z - xp[2];
+                if (!scalar(x, P, xp, h, z - xp[2], rla / landing[k])) return k;
+            }
+        }
+        if (!pd_diag(P)) return k;
+        memcpy(x_filt + N * k, x, sizeof(x));
+        pack(P, Pbuf + NP * k);
+        if (k < n - 1) {
+            double dt = t[k + 1] - t[k];
+            rk4(x, u + 6 * k, u + 6 * (k + 1), dt, g0, mno, xn);
+            phi_qd(x, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
+            predict_cov(P, Phi, Qd, Pn);
+            memcpy(P, Pn, sizeof(P));
+            if (!pd_diag(P)) {
+                *phase = 1;
+                return k + 1;
+            }
+            memcpy(x, xn, sizeof(x));
+        }
+    }
+    if (!smooth) return -1;
+    /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one */
+    double Ps[N][N], Pf[N][N], Pp[N][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], L[N][N];
+    double dx[N];
+    memcpy(x_s + N * (n - 1), x_filt + N * (n - 1), sizeof(double) * N);
+    unpack(Pbuf + NP * (n - 1), Ps);
+    std_row(x_s + N * (n - 1), Ps, mno, std + NSTD * (n - 1));
+    memset(L, 0, sizeof(L));
+    for (Py_ssize_t k = n - 2; k >= 0; k--) {
+        const double *xf = x_filt + N * k;
+        unpack(Pbuf + NP * k, Pf);
+        double dt = t[k + 1] - t[k];
+        phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
+        predict_cov(Pf, Phi, Qd, Pp);
+        for (int i = 0; i < N; i++)
+            if (!(Pp[i][i] > 0.0)) {
+                *phase = 2;
+                return k + 1;
+            }
+        if (!chol(Pp, L)) {
+            *phase = 2;
+            return k + 1;
+        }
+        for (int i = 0; i < N; i++) {
+            if (i < 10) {
+                for (int j = 0; j < 10; j++) Y[i][j] = 0.0;
+                for (int m = 0; m < N; m++) {
+                    double a = Phi[i][m];
+                    if (a != 0.0)
+                        for (int j = 0; j < 10; j++) Y[i][j] += a * Pf[m][j];
+                }
+            } else {
+                for (int j = 0; j < 10; j++) Y[i][j] = Pf[i][j];
+            }
+            for (int m = 0; m < i; m++) {
+                double a = L[i][m];
+                for (int j = 0; j < 10; j++) Y[i][j] -= a * Y[m][j];
+            }
+            double d = 1.0 / L[i][i];
+            for (int j = 0; j < 10; j++) Y[i][j] *= d;
+        }
+        for (int i = N - 1; i >= 0; i--) {
+            for (int j = 0; j < 10; j++) Ct[i][j] = Y[i][j];
+            for (int m = i + 1; m < N; m++) {
+                double a = L[m][i];
+                for (int j = 0; j < 10; j++) Ct[i][j] -= a * Ct[m][j];
+            }
+            double d = 1.0 / L[i][i];
+            for (int j = 0; j < 10; j++) Ct[i][j] *= d;
+        }
+        double *xs = x_s + N * k;
+        const double *xs1 = x_s + N * (k + 1), *xp1 = x_pred + N * (k + 1);
+        for (int m = 0; m < N; m++) dx[m] = xs1[m] - xp1[m];
+        for (int i = 0; i < 10; i++) {
+            double s = xf[i];
+            for (int m = 0; m < N; m++) s += Ct[m][i] * dx[m];
+            xs[i] = s;
+        }
+        for (int i = 10; i < N; i++) xs[i] = xf[i] + dx[i];
+        for (int i = 0; i < N; i++)
+            for (int j = 0; j < N; j++) Dm[i][j] = Ps[i][j] - Pp[i][j];
+        for (int i = 0; i < 10; i++) {
+            for (int j = 0; j < N; j++) E[i][j] = 0.0;
+            for (int m = 0; m < N; m++) {
+                double a = Ct[m][i];
+                for (int j = 0; j < N; j++) E[i][j] += a * Dm[m][j];
+            }
+        }
+        for (int i = 0; i < 10; i++) {
+            for (int j = i; j < 10; j++) {
+                double s = Pf[i][j];
+                for (int m = 0; m < N; m++) s += E[i][m] * Ct[m][j];
+                Ps[i][j] = s;
+                Ps[j][i] = s;
+            }
+            for (int j = 10; j < N; j++) {
+                double s = Pf[i][j] + E[i][j];
+                Ps[i][j] = s;
+                Ps[j][i] = s;
+            }
+        }
+        for (int i = 10; i < N; i++)
+            for (int j = i; j < N; j++) {
+                double s = Pf[i][j] + Dm[i][j];
+                Ps[i][j] = s;
+                Ps[j][i] = s;
+            }
+        pack(Ps, Pbuf + NP * k);
+        std_row(xs, Ps, mno, std + NSTD * k);
+    }
+    return -1;
+}
+
+static const char doc_ekf_rts[] =
+    "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
+    "        x_filt, x_pred, x_smooth, P_packed, resid, std) -> (fail, phase)\n\n"
+    "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1); par holds g0,\n"
+    "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
+    "use_mag, smooth (variances, not sigmas).  Outputs are written in place; fail is -1 or the step at which a\n"
+    "covariance stopped being positive definite, phase 0 update, 1 prediction, 2 backward pass.";
+
+static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
+    Py_ssize_t n;
+    PyObject *o[23];
+    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+                          &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
+                          &o[19], &o[20], &o[21], &o[22]))
+        return NULL;
+    if (n < 1) {
+        PyErr_SetString(PyExc_ValueError, "ekf_rts: n must be at least 1");
+        return NULL;
+    }
+    /* name, count (negative: at least), writable */
+    static const char *names[23] = {"t",    "u",     "pos",   "vel",   "mag",   "inrun",    "landing", "x0",
+                                    "P0",   "mno",   "m_o",   "qd",    "ir_z",  "ir_dz",    "la_z",    "la_dz",
+                                    "par",  "x_filt", "x_pred", "x_smooth", "P_packed", "resid", "std"};
+    Py_ssize_t counts[23] = {n,     6 * n,  3 * n,  3 * n,  3 * n,  n,      n,       N,
+                             N * N, 9,      3,      6 * n,  -2,     -2,     -2,      -2,
+                             NPAR,  N * n,  N * n,  N * n,  NP * n, 13 * n, NSTD * n};
+    Buf b[23];
+    int k;
+    for (k = 0; k < 23; k++) {
+        if (get_buf(o[k], &b[k], counts[k], k >= 17, names[k]) < 0) break;
+    }
+    PyObject *res = NULL;
+    if (k == 23) {
+        Py_ssize_t nir = b[12].view.len / 8, nla = b[14].view.len / 8;
+        if (b[13].view.len / 8 != nir || b[15].view.len / 8 != nla) {
+            PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
+        } else {
+            const double *p[17];
+            for (int i = 0; i < 17; i++) p[i] = (const double *)b[i].view.buf;
+            int phase = 0;
+            Py_ssize_t fail;
+            Py_BEGIN_ALLOW_THREADS
+            fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], nir,
+                       p[14], p[15], nla, p[16], (double *)b[17].view.buf, (double *)b[18].view.buf,
+                       (double *)b[19].view.buf, (double *)b[20].view.buf, (double *)b[21].view.buf,
+                       (double *)b[22].view.buf, &phase);
+            Py_END_ALLOW_THREADS
+            res = Py_BuildValue("ni", fail, phase);
+        }
+    }
+    for (int i = 0; i <= k && i < 23; i++)
+        if (b[i].held) PyBuffer_Release(&b[i].view);
+    return res;
+}
+
+static PyMethodDef methods[] = {
+    {"ekf_rts", py_ekf_rts, METH_VARARGS, doc_ekf_rts},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_ski_c", "Compiled ski-jump EKF + RTS smoother (the numba kernel's equations, in C).", -1,
+    methods,
+};
+
+PyMODINIT_FUNC PyInit__ski_c(void) { return PyModule_Create(&module); }

@@ -1,0 +1,96 @@
+"""Which compiled ski-jump smoother runs: the C extension when it is built, else numba.
+
+:mod:`sportfusion.skijump._ski_c` (C, built by ``setup.py`` as an optional extension) imports in about
+a millisecond; numba's import and the building of its target context when the first cached kernel is
+loaded cost about 0.7 s of CPU per ``rts-smooth`` run -- more than smoothing a 60k-step session.
+Both run the same equations in the same order (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`);
+without the extension (no C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the environment)
+the numba kernel does the work.  This module also holds the layout both share (no numba import here).
+"""
+
+from __future__ import annotations
+
+import os
+from types import ModuleType
+
+import numpy as np
+
+N = 22
+NP = N * (N + 1) // 2
+#: Columns of the standard-deviation rows: the 22 states, the hill-frame velocity (3), roll/pitch/yaw (3).
+NSTD = N + 6
+#: Residual blocks returned by ``ski_ekf_rts`` (name, width).
+RESIDUALS = (("c_q", 1), ("gnss_pos", 3), ("gnss_vel", 3), ("mag", 3), ("c_v_ir", 1), ("c_h_ir", 1), ("c_v_la", 1))
+
+
+def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
+    """Packed covariances (n, 253) -> full (n, k, k) over the state indices ``idx`` (default all 22)."""
+    iu = np.triu_indices(N)
+    full_idx = np.arange(N) if idx is None else np.asarray(idx)
+    pos = np.zeros((N, N), dtype=np.int64)
+    pos[iu] = np.arange(NP)
+    pos = np.maximum(pos, pos.T)
+    return packed[:, pos[np.ix_(full_idx, full_idx)]]
+
+
+_UNSET = object()
+_NATIVE: object = _UNSET
+
+
+def native() -> ModuleType | None:
+    """The C extension module, or None when it is not built or ``SPORTFUSION_NATIVE=0``."""
+    global _NATIVE
+    if _NATIVE is _UNSET:
+        mod = None
+        if os.environ.get("SPORTFUSION_NATIVE", "1") != "0":
+            try:
+                from sportfusion.skijump import _ski_c as mod  # type: ignore[attr-defined, no-redef]
+            except ImportError:
+                mod = None
+        _NATIVE = mod
+    return _NATIVE  # type: ignore[return-value]
+
+
+def _f64(a: object) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def ski_ekf_rts(
+    t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
+    ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
+):  # fmt: skip  # noqa: ANN001, ANN201
+    """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
+
+    Raises RuntimeError when the extension is not built (call :func:`native` first).
+    """
+    mod = native()
+    if mod is None:
+        raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
+    n = int(np.asarray(t).size)
+    x_filt = np.empty((n, N))
+    x_pred = np.empty((n, N))
+    x_s = np.empty((n, N)) if smooth else x_filt
+    pbuf = np.empty((n, NP))
+    resid = np.full((n, 13), np.nan)
+    std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
+    rpos, rvel = _f64(rpos), _f64(rvel)
+    par = np.array(
+        [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
+        + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
+        + [0.0, 0.0],
+        dtype=np.float64,
+    )
+    fail, phase = mod.ekf_rts(
+        n,
+        *(_f64(a) for a in (t, u, pos, vel, mag, inrun, landing, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz)),
+        par,
+        x_filt,
+        x_pred,
+        x_s if smooth else np.empty((n, N)),
+        pbuf,
+        resid,
+        std if smooth else np.empty((n, NSTD)),
+    )
+    if fail >= 0:
+        return x_filt, x_filt, pbuf, resid, fail, phase, np.empty((0, NSTD))
+    return x_filt, x_s, pbuf, resid, -1, 0, std
