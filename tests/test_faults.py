@@ -79,6 +79,19 @@ def test_mag_disturbance_detected_against_the_reference():
     assert flags[outside].mean() < 0.01
 
 
+def test_a_pause_of_the_whole_recording_is_not_a_sensor_gap():
+    from sportfusion.core.gaps import describe_gaps
+
+    t = np.r_[np.arange(0.0, 10.0, 0.1), np.arange(70.0, 80.0, 0.1)]  # logging paused 10-70 s
+    gps = np.r_[t[(t < 4.0)], t[(t > 6.0) & (t < 10.0)], t[t >= 70.0]]  # and a real 2 s gap at 4-6 s
+    missing, gaps = sampling_gaps(gps, pauses=[(9.9, 70.0)])
+    assert [round(g[0], 1) for g in gaps] == [3.9] and missing == 21  # 3.9 -> 6.1 s
+    assert len(sampling_gaps(gps)[1]) == 2  # without the pause both count
+    line = describe_gaps("GNSS", gps, 2.0, [(9.9, 70.0)])
+    assert line is not None and "1 stretch(es)" in line and "longest 2.20 s" in line
+    assert describe_gaps("GNSS", t, 2.0, [(9.9, 70.0)]) is None
+
+
 def test_sampling_gaps_counts_missing_samples():
     t = np.arange(0, 10, 0.01)
     keep = np.ones(t.size, bool)

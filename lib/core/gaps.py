@@ -9,8 +9,13 @@ from __future__ import annotations
 import numpy as np
 
 
-def sampling_gaps(t: np.ndarray, factor: float = 1.5) -> tuple[int, list[tuple[float, float]]]:
+def sampling_gaps(
+    t: np.ndarray, factor: float = 1.5, pauses: list[tuple[float, float]] | None = None
+) -> tuple[int, list[tuple[float, float]]]:
     """Missing samples and gaps of a sensor sampled at times ``t`` [s] (increasing).
+
+    ``pauses``: intervals ``(t0, t1)`` [s] in which the whole recording stopped (logging paused between
+    jumps): a step of ``t`` that spans one is not this sensor's gap and is not counted.
 
     Returns
     -------
@@ -28,13 +33,20 @@ def sampling_gaps(t: np.ndarray, factor: float = 1.5) -> tuple[int, list[tuple[f
     if med <= 0:
         return 0, []
     long = np.flatnonzero(d > factor * med)
+    if pauses:
+        p = np.asarray(pauses, dtype=float).reshape(-1, 2)
+        spans = (t[long, None] <= p[None, :, 0]) & (t[long + 1, None] >= p[None, :, 1])
+        long = long[~spans.any(axis=1)]
     missing = int(np.sum(np.rint(d[long] / med) - 1))
     return missing, [(float(t[i]), float(d[i])) for i in long]
 
 
-def describe_gaps(sensor: str, t: np.ndarray, min_gap: float) -> str | None:
-    """One line about the gaps of at least ``min_gap`` [s] (None when there is none)."""
-    missing, gaps = sampling_gaps(t)
+def describe_gaps(
+    sensor: str, t: np.ndarray, min_gap: float, pauses: list[tuple[float, float]] | None = None
+) -> str | None:
+    """One line about the gaps of at least ``min_gap`` [s] (None when there is none); steps across the
+    recording's ``pauses`` (see :func:`sampling_gaps`) are not gaps."""
+    missing, gaps = sampling_gaps(t, pauses=pauses)
     big = [(a, d) for a, d in gaps if d >= min_gap]
     if not big:
         return None

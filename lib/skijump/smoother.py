@@ -585,7 +585,9 @@ def rts_smooth_table(
         "mag_field_ned": inp.m_o.tolist(),
         "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
     }
-    warn = [clipped_message(inp), describe_gaps("GNSS", inp.t[np.isfinite(inp.pos[:, 0])], 2.0)]
+    # the IMU's own stops (logging paused between jumps: independent segments) are not GNSS gaps
+    pauses = [(inp.t[a - 1], inp.t[a]) for a, _ in segments(inp.t, cfg.max_gap)[1:]]
+    warn = [clipped_message(inp), describe_gaps("GNSS", inp.t[np.isfinite(inp.pos[:, 0])], 2.0, pauses)]
     if inp.mag_disturbed is not None and inp.mag_disturbed.any():
         md = inp.mag_disturbed
         warn.append(describe_mag(int(md.sum()), inp.t, md) + ": those samples are skipped")

@@ -430,12 +430,15 @@ def session_inputs(
     else:
         mag = np.full((t.size, 3), np.nan)
     # magnetic disturbances (core.magdisturb): skipped.  The raw magnetometer is not calibrated (the smoother
-    # estimates its bias and scale), so the reference strength is the recording's median, not the model's.
+    # estimates its bias and scale), so the reference strength is the median of each IMU segment (between
+    # logging pauses; a phone may recalibrate its magnetometer between two recordings), not the model's.
     disturbed = np.zeros(t.size, dtype=bool)
     okm = np.isfinite(mag).all(axis=1)
-    if okm.sum() > 10:
-        disturbed[okm] = mag_disturbed(t[okm], mag[okm], None)
-        mag[disturbed] = np.nan
+    for a, b in segments(t, cfg.max_gap):
+        sel = np.flatnonzero(okm[a:b]) + a
+        if sel.size > 10:
+            disturbed[sel] = mag_disturbed(t[sel], mag[sel], None)
+    mag[disturbed] = np.nan
     jumps = session_events(table, takeoff, touchdown, meta)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
