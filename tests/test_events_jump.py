@@ -34,9 +34,14 @@ def test_simulated_jump_within_30_ms(jump):
     j = det.jumps[0]
     times = tmeta["skijump"]["times"]
     assert abs(j.takeoff - times["takeoff"]) <= 0.03 + 1e-9
-    assert abs(j.touchdown - times["touchdown"]) <= 0.03 + 1e-9
-    assert j.touchdown == pytest.approx(j.t_peak_landing - 0.05)  # eq A4
+    assert abs(j.touchdown - times["touchdown"]) <= 0.002  # the impact's onset (issue 19)
+    assert j.touchdown_method == "onset" and j.touchdown < j.t_peak_landing
     assert j.flight_acc < 9.81 < j.peak_takeoff
+    (a4,) = detect_jump_table(session, JumpParams(touchdown_method="peak")).jumps
+    assert a4.touchdown == pytest.approx(a4.t_peak_landing - 0.05) and a4.touchdown_method == "peak"  # eq A4
+    assert abs(a4.touchdown - times["touchdown"]) <= 0.03 + 1e-9
+    with pytest.raises(ValueError, match="touchdown_method"):
+        JumpParams(touchdown_method="guess")
 
 
 def test_several_jumps_are_each_found(jump):
@@ -196,10 +201,16 @@ def test_cli_kind_jump(tmp_path, jump):
     assert ometa["events"][-1]["kind"] == "jump" and ometa["provenance"][-1]["tool"] == "detect-events"
     assert out.drop(["event"]).equals(session)  # every other column passes through
     # an option changes the result as documented
-    res = run_cli(["detect-events", "--kind", "jump", "--touchdown-offset", "0.1", str(FIX / "session.parquet")])
-    out2, _ = sfio.read_table(_io.BytesIO(res.stdout))
-    ev2 = {n: t for n, t in zip(out2.column("event").to_pylist(), schema.floats(out2, "t"), strict=True) if n}
-    assert ev2["touchdown"] == pytest.approx(ev["touchdown"] - 0.05, abs=0.0101)  # rows nearest the exact times
+    peak = ["detect-events", "--kind", "jump", "--touchdown-method", "peak", str(FIX / "session.parquet")]
+    res = run_cli(peak)
+    out1, meta1 = sfio.read_table(_io.BytesIO(res.stdout))
+    (j1,) = meta1["events"][-1]["jumps"]
+    assert j1["touchdown_method"] == "peak" and j1["touchdown"] == pytest.approx(j1["t_peak_landing"] - 0.05)
+    res = run_cli([*peak, "--touchdown-offset", "0.1"])
+    out2, meta2 = sfio.read_table(_io.BytesIO(res.stdout))
+    assert meta2["events"][-1]["jumps"][0]["touchdown"] == pytest.approx(j1["touchdown"] - 0.05)
+    (default,) = ometa["events"][-1]["jumps"]
+    assert default["touchdown_method"] == "onset" and abs(default["touchdown"] - times["touchdown"]) <= 0.002
     # no jump: a clear message, no event column invented
     still = session.filter(pa.array(schema.floats(session, "t") < 4.0))
     sfio.write_table(still, meta, tmp_path / "still.parquet")

@@ -16,7 +16,7 @@ import pyarrow as pa
 from sportfusion.climbing.grips import GripParams, grip_columns
 from sportfusion.core.session import with_columns
 from sportfusion.gates.crossings import GateParams, detect_gate_table, gate_columns, read_calibration
-from sportfusion.skijump.events import JumpParams, detect_jump_events
+from sportfusion.skijump.events import TOUCHDOWN_METHODS, JumpParams, detect_jump_events
 from sportfusion.tools._cli import Tool, tool
 
 
@@ -44,6 +44,7 @@ def _jump(table: pa.Table, meta: dict[str, Any], o: dict[str, Any]) -> tuple[pa.
         min_peak=o["min_peak"],
         max_flight_acc=o["max_flight_acc"],
         max_gnss_gap=o["max_gnss_gap"],
+        touchdown_method=o["touchdown_method"],
     )
     table, summary, msg = detect_jump_events(table, params)
     meta = {**meta, "events": [*(meta.get("events") or []), summary]}
@@ -98,7 +99,7 @@ def kind_from_meta(meta: dict[str, Any]) -> tuple[str, str] | None:
   simulate boulder --seed 1 --holds holds.parquet | detect-events --kind grips > trial.parquet
   detect-events --kind grips --window 17 --threshold 0.5 hand.parquet -o hand_grips.parquet
   simulate skijump --seed 1 | detect-events --kind jump > jump.parquet
-  detect-events --kind jump --touchdown-offset 0.08 --min-peak 20 session.parquet -o events.parquet
+  detect-events --kind jump --touchdown-method peak --touchdown-offset 0.08 --min-peak 20 session.parquet -o events.parquet
   simulate gates --seed 1 --gates survey.parquet | detect-events --kind gates > crossings.parquet
   detect-events --kind gates --magnet-calibration magnet.csv --gate-threshold 0.08 run.parquet -o crossings.parquet""",
 )
@@ -169,11 +170,20 @@ def kind_from_meta(meta: dict[str, Any]) -> tuple[str, str] | None:
     help="jump: the take-off and landing peaks are more than this apart [s].",
 )
 @click.option(
+    "--touchdown-method",
+    type=click.Choice(TOUCHDOWN_METHODS),
+    default=JumpParams.touchdown_method,
+    show_default=True,
+    help="jump: onset (the landing impact's onset, fitted between the samples; the peak minus --touchdown-offset "
+    "where none is found) or peak (skijump eq A4: the landing peak minus --touchdown-offset).",
+)
+@click.option(
     "--touchdown-offset",
     default=JumpParams.touchdown_offset,
     show_default=True,
     type=float,
-    help="jump: touch-down is this long before the landing peak [s].",
+    help="jump: touch-down is this long before the landing peak [s] (--touchdown-method peak, and the fallback "
+    "of onset).",
 )
 @click.option(
     "--max-separation",
@@ -246,11 +256,13 @@ def main(tool: Tool, kind: str | None, **options: Any) -> None:
     the device's own orientation dev_q0..3 when present) and the specific force
     barely vary (climbing paper §III; the first and last window/2 samples are
     never grips); samples at the sensor range are flagged imu_saturated.
-    jump: take-off = the earlier, touch-down = 0.05 s before the later of the two
-    largest specific-force peaks more than 1.5 s apart while the GNSS speed
-    exceeds 10 m/s (skijump Appendix A), per fast stretch, so several jumps are
-    each found; a stretch without two peaks and a flight between them gets no
-    events, with the reason on stderr.
+    jump: take-off = the earlier of the two largest specific-force peaks more
+    than 1.5 s apart while the GNSS speed exceeds 10 m/s (skijump Appendix A),
+    per fast stretch, so several jumps are each found; touch-down = the onset of
+    the landing impact before the later peak (where the specific force leaves
+    the flight's trend, fitted between the samples), or with --touchdown-method
+    peak 0.05 s before that peak (eq A4); a stretch without two peaks and a
+    flight between them gets no events, with the reason on stderr.
     gates: a gate crossing at each peak of the field intensity |B| normalised by
     its background (moving median), the distance to the magnet from the peak with
     the cube law r = (c/(b-1))^(1/3) (the paper's eq 1 is garbled; c calibrated

@@ -18,6 +18,12 @@ The method of the paper, with the errata applied:
    The ``event`` rows are the nearest samples; the exact times are in the metadata's ``events`` list,
    where rts-smooth and jump-metrics read them (:func:`sportfusion.skijump.smoother_inputs.session_events`).
 
+Touch-down (issue 19): by default (``touchdown_method="onset"``) the touch-down is not eq A4's fixed
+offset but the onset of the landing impact, fitted between the samples to the rise of ``a_norm`` before
+the landing peak (:func:`sportfusion.skijump.touchdown.impact_onset`: the flight's trend plus a smooth
+step); where that fit is not credible, eq A4 is kept and a warning says so.  ``touchdown_method="peak"``
+is Appendix A as printed.  Each jump records which one it used (``Jump.touchdown_method``).
+
 GNSS outages (policy, issue 17): where the GNSS speed is unknown for longer
 than ``max_gnss_gap`` (loss of lock, a receiver that stopped), the speed gate
 cannot be applied.  Such a stretch is searched as if fast when the GNSS speed
@@ -62,8 +68,11 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.events import set_events, true_runs
 from sportfusion.core.saturation import clipped_rows
+from sportfusion.skijump.touchdown import impact_onset
 
 JUMP_EVENTS = ("takeoff", "touchdown")
+#: How the touch-down is found: the landing impact's onset (default), or eq A4 (peak minus offset).
+TOUCHDOWN_METHODS = ("onset", "peak")
 
 
 @dataclass(frozen=True)
@@ -91,6 +100,9 @@ class JumpParams:
     peak_filter : float
         When the accelerometer clipped: samples within this time of a clipped sample are bridged
         (linear interpolation) before the peak search [s], so that impact bursts are not taken as peaks.
+    touchdown_method : str
+        ``"onset"`` (default): the landing impact's onset (:func:`sportfusion.skijump.touchdown.impact_onset`),
+        eq A4 where it is not found; ``"peak"``: eq A4 (the landing peak minus ``touchdown_offset``).
     """
 
     min_speed: float = 10.0
@@ -102,11 +114,17 @@ class JumpParams:
     flight_trim: float = 0.3
     max_gnss_gap: float = 2.0
     peak_filter: float = 0.1
+    touchdown_method: str = "onset"
+
+    def __post_init__(self) -> None:
+        if self.touchdown_method not in TOUCHDOWN_METHODS:
+            raise ValueError(f"touchdown_method {self.touchdown_method!r}; expected one of {TOUCHDOWN_METHODS}")
 
 
 @dataclass
 class Jump:
-    """One detected jump (times in the session's seconds)."""
+    """One detected jump (times in the session's seconds; ``touchdown_method``: how the touch-down was found,
+    ``"onset"`` or ``"peak"``)."""
 
     takeoff: float
     touchdown: float
@@ -116,6 +134,7 @@ class Jump:
     peak_landing: float
     flight_acc: float
     window: tuple[float, float]
+    touchdown_method: str = "peak"
 
 
 @dataclass
@@ -131,7 +150,8 @@ class JumpDetection:
         """JSON-ready summary for the metadata."""
         return {
             "kind": "jump",
-            "method": "skijump Appendix A (errata: peaks more than min_separation apart)",
+            "method": "skijump Appendix A (errata: peaks more than min_separation apart); touch-down: "
+            + ("the landing impact's onset" if params.touchdown_method == "onset" else "eq A4"),
             "params": asdict(params),
             "speed_windows": self.windows,
             "jumps": [asdict(j) for j in self.jumps],
@@ -235,16 +255,27 @@ def detect_jumps(
         mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
         flight = float(np.median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
         t_a, t_b = peak_time(tw, aw, ka), peak_time(tw, aw, kb)
+        t_td, how = t_b - p.touchdown_offset, "peak"
+        if p.touchdown_method == "onset":
+            onset = impact_onset(tw, aw, kb)
+            if onset is not None:
+                t_td, how = onset, "onset"
+            else:
+                det.warnings.append(
+                    f"landing at {t_b:.2f} s: no smooth impact onset found before the peak; the touch-down is "
+                    f"the peak minus {p.touchdown_offset:g} s (Appendix A)"
+                )
         det.jumps.append(
             Jump(
                 takeoff=t_a,
-                touchdown=t_b - p.touchdown_offset,
+                touchdown=t_td,
                 t_peak_takeoff=t_a,
                 t_peak_landing=t_b,
                 peak_takeoff=float(aw[ka]),
                 peak_landing=float(aw[kb]),
                 flight_acc=flight,
                 window=win,
+                touchdown_method=how,
             )
         )
     return det
