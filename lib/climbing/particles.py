@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.estimators.particles import backward_simulation, systematic_resample
+from sportfusion.estimators.particles import backward_simulation, backward_simulation_gaussian, systematic_resample
 
 ELSEWHERE = -1
 
@@ -397,27 +397,19 @@ def _backward(
     for c0 in range(k0, n - 1, 1024):  # in blocks of steps: the temporaries stay small
         sl = slice(c0, min(c0 + 1024, n - 1))
         nx = slice(c0 + 1, sl.stop + 1)
-        c = np.cos(psi[sl])[..., None]
-        pred = pos[sl] + model.ustep[sl, None, :]  # eq 17 at zero noise: ustep + horiz cos + kstep sin
-        pred += horiz[sl, None, :] * c
-        pred += model.kstep[sl, None, :] * np.sin(psi[sl])[..., None]
         lt = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)  # L^-T per step
         sy = (1.0 / model.yaw_sigma[sl])[:, None, None]
-        np.matmul(pred, lt, out=a[sl, :, :3])
+        # eq 17 at zero noise, whitened: (p + ustep + horiz cos + kstep sin) L^-T, as small matrix products
+        cs = np.stack((np.cos(psi[sl]), np.sin(psi[sl])), axis=2)  # (steps, m, 2)
+        hk = np.stack((horiz[sl], model.kstep[sl]), axis=1) @ lt  # (steps, 2, 3)
+        np.matmul(pos[sl], lt, out=a[sl, :, :3])
+        a[sl, :, :3] += cs @ hk
+        a[sl, :, :3] += model.ustep[sl, None, :] @ lt
         np.matmul(pos[nx], lt, out=b[sl, :, :3])
         np.multiply(psi[sl, :, None], sy, out=a[sl, :, 3:])
         np.multiply(psi[nx, :, None], sy, out=b[sl, :, 3:])
 
-    memo: list = [-1, None, None]  # the step's b_k(j): the same j for every move of a step
-
-    def log_f(k: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-        if memo[0] != k or memo[1] is not j:
-            memo[:] = [k, j, b[k][j]]
-        d = memo[2] - a[k][i]
-        d *= d
-        return -0.5 * d.sum(axis=1)
-
-    return backward_simulation(w, anc, log_f, rng, k0, moves)
+    return backward_simulation_gaussian(w, anc, a, b, rng, k0, moves)
 
 
 def _ffbsm(pos: np.ndarray, psi: np.ndarray, w: np.ndarray, model: _Model, k0: int) -> np.ndarray:
