@@ -280,8 +280,8 @@ def run_particle_filter(
     psi = rng.normal(0.0, p.start_yaw_sigma, m)
     lab = np.searchsorted(table, s_ids[which])
     lw = np.zeros(m)  # log weights (equal)
-    hist_pos = np.empty((n, m, 3))
-    hist_psi = np.empty((n, m))
+    hist = np.empty((n, m, 4))  # per step and particle: position [m], yaw error [rad]
+    hist_pos, hist_psi = hist[..., :3], hist[..., 3]
     hist_w = np.empty((n, m))
     hist_lab = np.empty((n, m), dtype=np.int64)
     anc = np.empty((max(n - 1, 0), m), dtype=np.int64)  # anc[k, j]: particle at k that j at k+1 came from
@@ -349,14 +349,14 @@ def run_particle_filter(
                 anc[last] = idx
             pos, psi, lab, lw = pos[:, idx], psi[idx], lab[idx], np.zeros(m)
             resamples += 1
-        want = 2 if low.size else min(4 * want, 512)
+        want = 2 if low.size else min(4 * want, 64)
         k = stop
     res = PFResult(k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples)
     if smooth:
         if p.smoother == "ffbsm":
             ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
         elif p.smoother == "backward":
-            ws = _backward(hist_pos, hist_psi, hist_w, anc, model, k0, rng, p.smoother_moves)
+            ws = _backward(hist, hist_w, anc, model, k0, rng, p.smoother_moves)
         else:
             raise InputError(f"smoother {p.smoother!r} is not backward or ffbsm")
         sp = np.full((n, 3), np.nan)
@@ -373,8 +373,7 @@ def run_particle_filter(
 
 
 def _backward(
-    pos: np.ndarray,
-    psi: np.ndarray,
+    state: np.ndarray,
     w: np.ndarray,
     anc: np.ndarray,
     model: _Model,
@@ -384,31 +383,31 @@ def _backward(
 ) -> np.ndarray:
     """Smoothed weights (n, m) by backward simulation (O(m) per step); rows before ``k0`` are zero.
 
-    The transition density of eq 17 in whitened coordinates, prepared for all steps at once:
+    ``state`` (n, m, 4): the particles' positions [m] and yaw errors [rad].  The transition density of
+    eq 17 in whitened coordinates, prepared for all steps at once:
     ``log f(j | i) = -|B_k(j) - A_k(i)|^2 / 2`` with ``A_k = L_k^-1 predict(x_k)`` and
     ``B_k = L_k^-1 p_k+1`` (position; yaw alike with its 1-sigma).
     """
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
-    horiz = model.step - model.ustep
+    steps = np.stack((model.step - model.ustep, model.kstep, model.ustep), axis=1)  # (n-1, 3, 3)
     a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
     b = np.empty((n, m, 4))
     for c0 in range(k0, n - 1, 1024):  # in blocks of steps: the temporaries stay small
         sl = slice(c0, min(c0 + 1024, n - 1))
         nx = slice(c0 + 1, sl.stop + 1)
-        lt = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)  # L^-T per step
-        sy = (1.0 / model.yaw_sigma[sl])[:, None, None]
-        # eq 17 at zero noise, whitened: (p + ustep + horiz cos + kstep sin) L^-T, as small matrix products
-        cs = np.stack((np.cos(psi[sl]), np.sin(psi[sl])), axis=2)  # (steps, m, 2)
-        hk = np.stack((horiz[sl], model.kstep[sl]), axis=1) @ lt  # (steps, 2, 3)
-        np.matmul(pos[sl], lt, out=a[sl, :, :3])
-        a[sl, :, :3] += cs @ hk
-        a[sl, :, :3] += model.ustep[sl, None, :] @ lt
-        np.matmul(pos[nx], lt, out=b[sl, :, :3])
-        np.multiply(psi[sl, :, None], sy, out=a[sl, :, 3:])
-        np.multiply(psi[nx, :, None], sy, out=b[sl, :, 3:])
-
+        whiten = np.zeros((sl.stop - c0, 4, 4))  # (p, psi) -> (L^-1 p, psi / sigma_psi), as row vectors
+        whiten[:, :3, :3] = np.swapaxes(np.linalg.inv(model.chol[sl]), 1, 2)
+        whiten[:, 3, 3] = 1.0 / model.yaw_sigma[sl]
+        np.matmul(state[nx], whiten, out=b[sl])
+        np.matmul(state[sl], whiten, out=a[sl])
+        # eq 17 at zero noise adds horiz cos + kstep sin + ustep, whitened: (cos, sin, 1) @ (steps L^-T)
+        rot = np.empty((sl.stop - c0, m, 3))
+        np.cos(state[sl, :, 3], out=rot[..., 0])
+        np.sin(state[sl, :, 3], out=rot[..., 1])
+        rot[..., 2] = 1.0
+        a[sl] += rot @ (steps[sl] @ whiten[:, :3, :])
     return backward_simulation_gaussian(w, anc, a, b, rng, k0, moves)
 
 
