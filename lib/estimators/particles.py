@@ -178,6 +178,32 @@ def backward_simulation_gaussian(
         return ws
     j, cum, u, log_u = _backward_draws(w, rng, k0, moves)
     thr = -2.0 * log_u  # accept when |b - a'|^2 - |b - a|^2 < -2 log u
+    if moves == 1 and not _STEPWISE:
+        path = _gaussian_path_blocks(j, cum, u[:, 0], thr[:, 0], ancestors, a, b, k0)
+    else:
+        path = _gaussian_path_steps(j, cum, u, thr, ancestors, a, b, k0)
+    rows = path.shape[0]
+    ws[k0:] = np.bincount((path + m * np.arange(rows)[:, None]).ravel(), minlength=rows * m).reshape(rows, m)
+    ws[k0:] /= m
+    return ws
+
+
+_STEPWISE = False  # tests set it to compare the two paths of backward_simulation_gaussian
+
+
+def _gaussian_path_steps(
+    j: np.ndarray,
+    cum: np.ndarray,
+    u: np.ndarray,
+    thr: np.ndarray,
+    ancestors: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    k0: int,
+) -> np.ndarray:
+    """The trajectories' particles (n - k0, m) of :func:`backward_simulation_gaussian`, one step at a time."""
+    n, m = a.shape[0], j.size
+    moves = u.shape[1]
     moved = (ancestors[k0 : n - 1] != np.arange(m)).any(axis=1)
     path = np.empty((n - k0, m), dtype=np.int64)
     path[-1] = j
@@ -197,7 +223,88 @@ def backward_simulation_gaussian(
                 s = d @ ones  # squared distances (2, m)
                 cur = np.where(s[1] - s[0] < thr[r, mv], prop, cur)
         path[r] = j = cur
-    rows = path.shape[0]
-    ws[k0:] = np.bincount((path + m * np.arange(rows)[:, None]).ravel(), minlength=rows * m).reshape(rows, m)
-    ws[k0:] /= m
-    return ws
+    return path
+
+
+def _search_rows(cum: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``cum[r].searchsorted(u[r], side="right")`` for every row ``r`` of (L, m) arrays.
+
+    Row by row (a row stays in the cache) with the keys sorted first: a binary search over sorted keys
+    predicts its branches (CPU time 53 -> 10 + 16 ms for 3500 rows of 200; one search over all rows
+    shifted by their number costs more).
+    """
+    rows, m = cum.shape
+    flat = (np.argsort(u, axis=1) + m * np.arange(rows)[:, None]).ravel()  # row by row, the keys in order
+    keys = u.ravel().take(flat).reshape(rows, m)
+    found = np.empty(cum.shape, dtype=np.int64)
+    for r in range(rows):
+        found[r] = cum[r].searchsorted(keys[r], side="right")
+    idx = np.empty(rows * m, dtype=np.int64)
+    idx[flat] = found.ravel()
+    return idx.reshape(rows, m)
+
+
+def _gaussian_path_blocks(
+    j: np.ndarray,
+    cum: np.ndarray,
+    u: np.ndarray,
+    thr: np.ndarray,
+    ancestors: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    k0: int,
+) -> np.ndarray:
+    """The trajectories' particles (n - k0, m) of :func:`backward_simulation_gaussian` with one move per step,
+    many steps per array operation: the same result as :func:`_gaussian_path_steps`.
+
+    Between two resampling steps the ancestors are the identity, so a trajectory keeps its particle until
+    a proposal is accepted -- rarely (0.02 % of the trajectory-steps of a 35 s climbing trial).  For a block
+    of steps the tests of every trajectory are evaluated at once as if it kept its particle; a trajectory
+    that accepts a proposal is evaluated again, from that step down, with its new particle, until none
+    accepts.  The blocks end below each resampling step.
+    """
+    n, m = a.shape[0], j.size
+    path = np.empty((n - k0, m), dtype=np.int64)
+    path[-1] = j
+    moved = np.flatnonzero((ancestors[k0 : n - 1] != np.arange(m)).any(axis=1)) + k0
+    ones = np.ones(a.shape[2])
+    hi = n - 2
+    while hi >= k0:
+        below = moved[moved < hi]
+        lo = int(below[-1]) + 1 if below.size else k0
+        r0, rows = lo - k0, hi - lo + 1
+        props = _search_rows(cum[r0 : r0 + rows], u[r0 : r0 + rows])
+        out = path[r0 : r0 + rows]
+        # active trajectories: their number, the block row they start at, their particle there (the ancestor
+        # of their particle above) and the particle above it (the one the transition density looks at)
+        t = np.arange(m)
+        top = np.full(m, rows - 1)
+        cur = ancestors[hi].take(j)
+        above = j
+        while t.size:
+            kk = np.arange(int(top.max()) + 1)[:, None]
+            ak = a[lo : lo + kk.size].reshape(-1, a.shape[2])  # rows (step, particle), flat
+            bk = b[lo : lo + kk.size].reshape(-1, a.shape[2])
+            base = kk * m
+            bt = bk.take(base + np.where(kk == top, above, cur), axis=0)  # (steps, active, d)
+            prop = props[: kk.size, t]
+            d = ak.take(base + cur, axis=0)
+            d -= bt
+            d *= d
+            e = ak.take(base + prop, axis=0)
+            e -= bt
+            e *= e
+            acc = (e @ ones - d @ ones < thr[r0 : r0 + kk.size, t]) & (kk <= top) & (prop != cur)
+            hit = acc.any(axis=0)
+            first = np.where(hit, kk.size - 1 - np.argmax(acc[::-1], axis=0), -1)  # highest accepted row
+            keep = (kk > first) & (kk <= top)
+            out[: kk.size, t] = np.where(keep, cur, out[: kk.size, t])
+            t, first = t[hit], first[hit]
+            cur = prop[first, hit]
+            out[first, t] = cur
+            top, above = first - 1, cur
+            go = top >= 0
+            t, top, cur, above = t[go], top[go], cur[go], above[go]
+        j = out[0]
+        hi = lo - 1
+    return path
