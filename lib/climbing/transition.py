@@ -407,15 +407,14 @@ def solve(prob: Problem, st: State) -> tuple[State, Linearization, Normal, tuple
         while True:
             dx, db, _ = solve_step(ne, lam)
             cand = st.boxplus(dx, db)
-            lin_c = linearize(prob, cand, jacobian=False)
+            lin_c = linearize(prob, cand)  # with the Jacobian: it is the next linearization when accepted
             if lin_c.cost <= cost or lam > 1e8:
                 break
             lam *= 10.0
         if lin_c.cost > cost:
             break
         decrease = (cost - lin_c.cost) / max(cost, 1e-300)
-        st, cost = cand, lin_c.cost
-        lin = linearize(prob, st)
+        st, cost, lin = cand, lin_c.cost, lin_c
         lam = max(lam / 10.0, 1e-9)
         if decrease < p.tol or np.abs(dx).max() < 1e-10:
             break
