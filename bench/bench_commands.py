@@ -14,7 +14,8 @@ and the peer measured in this same run:
 4. Start-up: every command's ``--help`` and a no-op stage (``inspect`` on a 20-row table) against
    ``python -c "import numpy, pyarrow"`` (the floor), best of 3.
 
-Run: ``python bench/bench_commands.py [--quick]`` (``--quick``: 5 jumps, 2e5 epochs, no filterpy).
+Run: ``python bench/bench_commands.py [--quick] [--only pf,startup]`` (``--quick``: 5 jumps, 2e5 epochs,
+no filterpy; ``--only``: the parts named, of startup, pf, spline, rts).
 """
 
 from __future__ import annotations
@@ -234,14 +235,22 @@ def startup(folder: Path) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller inputs, no filterpy")
+    ap.add_argument(
+        "--only", default="startup,pf,spline,rts", help="the parts to run, comma-separated (startup, pf, spline, rts)"
+    )
     a = ap.parse_args()
+    parts = set(a.only.split(","))
     print(f"{os.cpu_count()} CPU(s); CPU time = user + system of the command's process (os.wait4)")
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
-        startup(folder)
-        pf(folder)
-        spline(folder, a.quick)
-        rts(folder, a.quick)
+        if "startup" in parts:
+            startup(folder)
+        if "pf" in parts:
+            pf(folder)
+        if "spline" in parts:
+            spline(folder, a.quick)
+        if "rts" in parts:
+            rts(folder, a.quick)
     print("timings on a shared machine are noisy: CPU time is the figure to compare")
 
 
