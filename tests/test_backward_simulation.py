@@ -9,8 +9,15 @@ each other; with zero moves (ancestors only) the smoother degenerates to the fil
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from sportfusion.estimators.particles import backward_simulation, reweight, systematic_resample
+from sportfusion.estimators import particles
+from sportfusion.estimators.particles import (
+    backward_simulation,
+    backward_simulation_gaussian,
+    reweight,
+    systematic_resample,
+)
 
 Q, R, N, M = 0.3**2, 0.5**2, 40, 400
 
@@ -107,3 +114,58 @@ def test_zero_moves_follows_the_genealogy() -> None:
     # without moves each trajectory is its ancestor line: support at k is inside the ancestors of k+1's support
     for k in range(N - 1):
         assert set(np.flatnonzero(ws[k])) <= set(anc[k][np.flatnonzero(ws[k + 1])])
+
+
+def _whitened(hx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The random walk's transition in whitened coordinates: a[k] = x_k / sqrt(Q), b[k] = x_k+1 / sqrt(Q)."""
+    a = np.empty((N, M, 1))
+    b = np.empty((N, M, 1))
+    a[:-1, :, 0] = hx[:-1] / np.sqrt(Q)
+    b[:-1, :, 0] = hx[1:] / np.sqrt(Q)
+    return a, b
+
+
+@pytest.mark.parametrize("moves", [0, 1, 3])
+def test_gaussian_form_draws_the_same_trajectories(moves: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """backward_simulation_gaussian = backward_simulation with log f = -|b - a|^2 / 2, draw for draw, both ways
+    (one step at a time, and many steps per array operation for one move)."""
+    _, y = _problem(11)
+    hx, hw, anc = _filter(y, seed=6)
+    a, b = _whitened(hx)
+    ref = backward_simulation(hw, anc, _log_f(hx), np.random.default_rng(5), k0=2, moves=moves)
+    for stepwise in (False, True):
+        monkeypatch.setattr(particles, "_STEPWISE", stepwise)
+        got = backward_simulation_gaussian(hw, anc, a, b, np.random.default_rng(5), k0=2, moves=moves)
+        assert np.array_equal(got, ref)
+
+
+def test_gaussian_form_matches_ffbsm_statistically() -> None:
+    """The O(M)-per-step smoother's marginal means against FFBSm's (O(M^2)) within the Monte-Carlo error."""
+    _, y = _problem()
+    hx, hw, anc = _filter(y, seed=1)
+    a, b = _whitened(hx)
+    m_ff = (_ffbsm(hx, hw) * hx).sum(axis=1)
+    runs = [
+        (backward_simulation_gaussian(hw, anc, a, b, np.random.default_rng(s), moves=1) * hx).sum(axis=1)
+        for s in range(8)
+    ]
+    assert np.max(np.abs(np.mean(runs, axis=0) - m_ff)) < 0.1
+    assert np.sqrt(np.mean((runs[0] - m_ff) ** 2)) < 0.08
+
+
+def test_blocks_agree_with_steps_when_proposals_are_often_accepted(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Many accepted moves per trajectory and block (wide transition noise): the block form redoes them all."""
+    rng = np.random.default_rng(2)
+    n, m = 60, 30
+    w = rng.random((n, m)) + 0.1
+    w /= w.sum(axis=1, keepdims=True)
+    anc = np.tile(np.arange(m), (n - 1, 1))
+    for k in (7, 30, 31, 50):  # resamplings, two in a row
+        anc[k] = np.sort(rng.integers(0, m, m))
+    a = rng.normal(0.0, 0.3, (n, m, 2))
+    b = rng.normal(0.0, 0.3, (n, m, 2))
+    monkeypatch.setattr(particles, "_STEPWISE", True)
+    ref = backward_simulation_gaussian(w, anc, a, b, np.random.default_rng(9), k0=3, moves=1)
+    monkeypatch.setattr(particles, "_STEPWISE", False)
+    got = backward_simulation_gaussian(w, anc, a, b, np.random.default_rng(9), k0=3, moves=1)
+    assert np.array_equal(got, ref)

@@ -166,3 +166,68 @@ def test_position_noise_is_the_velocity_error_times_dt():
     dt = np.diff(t)
     np.testing.assert_allclose(model.chol @ np.swapaxes(model.chol, 1, 2), cov[:-1] * dt[:, None, None] ** 2, rtol=1e-9)
     np.testing.assert_allclose(model.yaw_sigma**2, 0.09 * dt, rtol=1e-12)
+
+
+def test_grip_likelihood_in_pieces_equals_hold_by_hold():
+    """Many particles and holds: the product is split into pieces (BLAS threading threshold); same result."""
+    rng = np.random.default_rng(4)
+    centres = rng.uniform(0.0, 4.0, (40, 3))
+    ids = np.arange(100, 140)
+    p = rng.uniform(0.0, 4.0, (5000, 3))
+    ll, lab = grip_log_likelihood(p, centres, ids, MODEL)
+    each = np.array([hold_log_likelihood(p, c, MODEL) for c in centres])  # (40, 5000)
+    best = each.max(axis=0)
+    assert np.allclose(ll, np.maximum(best, MODEL.log_elsewhere), rtol=0, atol=1e-9)
+    at_hold = best > MODEL.log_elsewhere
+    assert np.array_equal(lab[at_hold], ids[each.argmax(axis=0)][at_hold]) and (lab[~at_hold] == -1).all()
+
+
+def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
+    """The filter one step at a time (as before it ran over blocks): the reference for the block form."""
+    from sportfusion.estimators.particles import reweight
+
+    rng = np.random.default_rng(seed)
+    m, n = params.particles, t.size
+    k0 = int(np.argmax(grip))
+    model = pf._Model(t, v, cov, UP, params.yaw_psd)
+    (r_ids, r_pos), (s_ids, s_pos) = route, start
+    which = np.arange(m) % s_ids.size
+    pos = s_pos[which] + rng.normal(0.0, params.start_sigma, (m, 3))
+    psi = rng.normal(0.0, params.start_yaw_sigma, m)
+    lab = s_ids[which]
+    w = np.full(m, 1.0 / m)
+    nk = n - 1 - k0
+    add_pos = rng.standard_normal((nk, m, 3)) @ np.swapaxes(model.chol[k0 : n - 1], 1, 2) + model.ustep[k0:, None]
+    add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0:, None]
+    u_res = rng.random(n)
+    horiz = model.step - model.ustep
+    out = np.full((n, 3), np.nan)
+    hist_w = np.zeros((n, m))
+    for k in range(k0, n):
+        if k > k0:
+            j = k - 1
+            pos = pos + add_pos[j - k0] + np.outer(np.cos(psi), horiz[j]) + np.outer(np.sin(psi), model.kstep[j])
+            psi = psi + add_psi[j - k0]
+        if grip[k]:
+            ll, lab = grip_log_likelihood(pos, r_pos, r_ids, params.hold)
+            w = reweight(w, ll)
+        hist_w[k] = w
+        sums = np.bincount(lab + 1, weights=w)
+        sel = lab == int(np.argmax(sums)) - 1
+        out[k] = w[sel] @ pos[sel] / sums[np.argmax(sums)]
+        if grip[k] and 1.0 / (w @ w) < params.ess_fraction * m:
+            idx = systematic_resample(w, u_res[k])
+            pos, psi, lab, w = pos[idx], psi[idx], lab[idx], np.full(m, 1.0 / m)
+    return out, hist_w
+
+
+def test_block_filter_equals_the_step_by_step_filter():
+    t, p, v, cov, grip, route, start = _ladder()
+    grip = grip.copy()
+    grip[:3] = False  # the filter starts at the first grip
+    params = PFParams(particles=60, ess_fraction=0.97)  # resampling often: many blocks end early
+    res = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=2, smooth=False)
+    ref, _ = _filter_step_by_step(t, v, cov, grip, route, start, params, seed=2)
+    assert res.resamples >= 3
+    assert np.allclose(res.pos[3:], ref[3:], rtol=0, atol=1e-9)
+    assert np.isnan(res.pos[:3]).all()

@@ -111,11 +111,12 @@ def test_block_normal_equations_step_and_covariance_match_dense_algebra():
     assert np.allclose(ne.gx.ravel(), g[: 6 * n], rtol=1e-10, atol=1e-8)
     assert np.allclose(ne.gb, g[6 * n :], rtol=1e-10, atol=1e-8)
     dense_step = np.linalg.solve(h + 1e-3 * np.eye(h.shape[0]), -g)
-    dx, db, (xb, s) = tr.solve_step(ne, 1e-3)
+    dx, db, (xb, s, _) = tr.solve_step(ne, 1e-3)
     assert np.allclose(dx.ravel(), dense_step[: 6 * n], rtol=1e-7, atol=1e-9)
     assert np.allclose(db, dense_step[6 * n :], rtol=1e-7, atol=1e-9)
-    _, _, (xb, s) = tr.solve_step(ne, 0.0)
+    _, _, (xb, s, factored) = tr.solve_step(ne, 0.0)
     cov = tr.velocity_covariance(ne, xb, s)
+    assert np.allclose(tr.velocity_covariance(ne, xb, s, factored), cov, rtol=1e-12, atol=0)
     inv = np.linalg.inv(h)
     for k in range(n):
         ref = inv[6 * k + 3 : 6 * k + 6, 6 * k + 3 : 6 * k + 6]

@@ -41,7 +41,7 @@ from sportfusion.tools._cli import Tool, tool
     "--smooth/--no-smooth",
     default=True,
     show_default=True,
-    help="Output the particle smoother (FFBSm) or the forward filter [flag].",
+    help="Output the particle smoother (backward simulation) or the forward filter [flag].",
 )
 @click.option(
     "--yaw-psd",

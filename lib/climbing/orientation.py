@@ -84,20 +84,17 @@ def complementary_filter(
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = (float(v) for v in r.ravel())
     ux, uy, uz = (float(v) for v in upw)
     mx, my, mz = (float(v) for v in mw)
-    fl, ml, wl, kal, kml, dtl = fh.tolist(), mh.tolist(), w.tolist(), ka.tolist(), km.tolist(), dt.tolist()
+    fl, ml, wl, kal, kml = fh[:-1].tolist(), mh[:-1].tolist(), w[:-1].tolist(), ka[:-1].tolist(), km[:-1].tolist()
+    dtl = dt.tolist()
     rows = [(r0, r1, r2, r3, r4, r5, r6, r7, r8)]
-    for k in range(n - 1):
+    for (fx, fy, fz), (hx, hy, hz), (wx, wy, wz), a, m_, d in zip(fl, ml, wl, kal, kml, dtl, strict=True):
         # predicted up and field in the body frame: R^T u, R^T m
         bx, by, bz = r0 * ux + r3 * uy + r6 * uz, r1 * ux + r4 * uy + r7 * uz, r2 * ux + r5 * uy + r8 * uz
         cx, cy, cz = r0 * mx + r3 * my + r6 * mz, r1 * mx + r4 * my + r7 * mz, r2 * mx + r5 * my + r8 * mz
-        fx, fy, fz = fl[k]
-        hx, hy, hz = ml[k]
-        a, m_ = kal[k], kml[k]
         ex = a * (fy * bz - fz * by) + m_ * (hy * cz - hz * cy)
         ey = a * (fz * bx - fx * bz) + m_ * (hz * cx - hx * cz)
         ez = a * (fx * by - fy * bx) + m_ * (hx * cy - hy * cx)
-        d = dtl[k]
-        px, py, pz = (wl[k][0] + ex) * d, (wl[k][1] + ey) * d, (wl[k][2] + ez) * d
+        px, py, pz = (wx + ex) * d, (wy + ey) * d, (wz + ez) * d
         th2 = px * px + py * py + pz * pz
         if th2 < 1e-18:
             sa, sb = 1.0, 0.5

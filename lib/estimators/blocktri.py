@@ -1,0 +1,146 @@
+"""Symmetric positive definite block-tridiagonal systems by cyclic reduction, numpy only.
+
+A matrix ``A`` of ``n x n`` blocks of size ``b`` with diagonal blocks ``D_k`` and ``A[k, k+1] = E_k``
+(``A[k+1, k] = E_k^T``).  Odd-even cyclic reduction eliminates the even-numbered blocks of a level,
+
+    x_j = D_j^-1 r_j - P_j x_j-1 - Q_j x_j+1,   P_j = D_j^-1 E_j-1^T,  Q_j = D_j^-1 E_j,
+
+which leaves a block-tridiagonal system of half the size on the odd-numbered blocks (its diagonal
+blocks are Schur complements of ``A``, so they stay positive definite):
+
+    D'_k = D_k - E_k-1^T Q_k-1 - E_k P_k+1,   E'_k = -E_k Q_k+1,   r'_k = r_k - Q_k-1^T r_k-1 - P_k+1^T r_k+1.
+
+After ``log2 n`` levels one block is left.  Every level is a handful of batched ``b x b`` products
+and one batched inverse, so the work is O(n b^3) in O(log n) array operations (no loop over the
+blocks, no LAPACK banded solver and no ``scipy.linalg`` import).  The diagonal blocks of ``A^-1``
+(selected inversion) come back up the levels the same way: with ``G = A^-1``,
+
+    G_jj = D_j^-1 + L_j P_j^T + R_j Q_j^T,   G_j,j-1 = -L_j,   G_j,j+1 = -R_j,
+    L_j = P_j G_j-1,j-1 + Q_j G_j+1,j-1,      R_j = P_j G_j-1,j+1 + Q_j G_j+1,j+1,
+
+from the diagonal and first off-diagonal blocks of the reduced system's inverse.  A level with an
+even number of blocks gets a decoupled identity block appended (it changes nothing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["CyclicReduction", "factor", "solve", "diagonal_of_inverse"]
+
+
+@dataclass
+class _Level:
+    dinv: np.ndarray  # (ne, b, b) inverses of the eliminated (even) diagonal blocks
+    p: np.ndarray  # (ne, b, b) D_j^-1 E_j-1^T (zero for the first)
+    q: np.ndarray  # (ne, b, b) D_j^-1 E_j (zero for the last)
+    padded: bool  # an identity block was appended to this level
+
+
+@dataclass
+class CyclicReduction:
+    """A factorised block-tridiagonal matrix (from :func:`factor`)."""
+
+    n: int
+    levels: list[_Level]
+    last: np.ndarray  # (1, b, b) inverse of the one block left
+
+
+def _t(a: np.ndarray) -> np.ndarray:
+    return np.swapaxes(a, -1, -2)
+
+
+def _spd_inverse(d: np.ndarray) -> np.ndarray:
+    """Inverses of positive definite blocks (..., b, b); LinAlgError when one is not positive definite."""
+    li = np.linalg.inv(np.linalg.cholesky(d))
+    return _t(li) @ li
+
+
+def factor(d: np.ndarray, e: np.ndarray) -> CyclicReduction:
+    """Cyclic reduction of the symmetric positive definite block-tridiagonal matrix (``D``, ``E``).
+
+    Parameters
+    ----------
+    d : numpy.ndarray, shape (n, b, b)
+        Diagonal blocks (symmetric).
+    e : numpy.ndarray, shape (n - 1, b, b)
+        Upper off-diagonal blocks ``A[k, k+1]``.
+
+    Returns
+    -------
+    CyclicReduction
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the matrix is not positive definite.
+    """
+    d = np.asarray(d, dtype=np.float64)
+    e = np.asarray(e, dtype=np.float64)
+    n, b = d.shape[0], d.shape[1]
+    if n == 0:
+        raise ValueError("no blocks")
+    levels = []
+    while d.shape[0] > 1:
+        padded = d.shape[0] % 2 == 0
+        if padded:
+            d = np.concatenate((d, np.eye(b)[None]))
+            e = np.concatenate((e, np.zeros((1, b, b))))
+        dinv = _spd_inverse(d[0::2])
+        e0, e1 = e[0::2], e[1::2]  # E_j of the even j (right couplings), E_j-1 of the even j >= 2
+        p = np.zeros_like(dinv)
+        q = np.zeros_like(dinv)
+        p[1:] = dinv[1:] @ _t(e1)
+        q[:-1] = dinv[:-1] @ e0
+        d = d[1::2] - _t(e0) @ q[:-1] - e1 @ p[1:]
+        e = -e1[:-1] @ q[1:-1]
+        levels.append(_Level(dinv, p, q, padded))
+    return CyclicReduction(n, levels, _spd_inverse(d))
+
+
+def solve(f: CyclicReduction, r: np.ndarray) -> np.ndarray:
+    """``A^-1 r`` for right-hand sides ``r`` of shape (n, b) or (n, b, c)."""
+    r = np.asarray(r, dtype=np.float64)
+    vec = r.ndim == 2
+    if vec:
+        r = r[..., None]
+    kept = []
+    for lev in f.levels:
+        if lev.padded:
+            r = np.concatenate((r, np.zeros((1, *r.shape[1:]))))
+        re = r[0::2]
+        kept.append(re)
+        r = r[1::2] - _t(lev.q[:-1]) @ re[:-1] - _t(lev.p[1:]) @ re[1:]
+    x = f.last @ r
+    for lev, re in zip(reversed(f.levels), reversed(kept), strict=True):
+        xe = lev.dinv @ re
+        xe[1:] -= lev.p[1:] @ x
+        xe[:-1] -= lev.q[:-1] @ x
+        full = np.empty((xe.shape[0] + x.shape[0], *x.shape[1:]))
+        full[0::2], full[1::2] = xe, x
+        x = full[:-1] if lev.padded else full
+    return x[..., 0] if vec else x
+
+
+def diagonal_of_inverse(f: CyclicReduction) -> np.ndarray:
+    """The diagonal blocks (n, b, b) of ``A^-1`` (selected inversion, O(n b^3))."""
+    g = f.last  # diagonal blocks of the current level's inverse
+    c = np.zeros((0, *g.shape[1:]))  # its first off-diagonal blocks G[k, k+1]
+    for lev in reversed(f.levels):
+        p, q = lev.p, lev.q
+        left = np.zeros_like(lev.dinv)
+        right = np.zeros_like(lev.dinv)
+        left[1:] = p[1:] @ g
+        left[1:-1] += q[1:-1] @ _t(c)
+        right[:-1] = q[:-1] @ g
+        right[1:-1] += p[1:-1] @ c
+        ge = lev.dinv + left @ _t(p) + right @ _t(q)
+        diag = np.empty((ge.shape[0] + g.shape[0], *g.shape[1:]))
+        diag[0::2], diag[1::2] = ge, g
+        off = np.empty((diag.shape[0] - 1, *g.shape[1:]))
+        off[0::2] = -right[:-1]  # G[j, j+1], j even
+        off[1::2] = -_t(left[1:])  # G[k, k+1] = G[k+1, k]^T, k odd
+        g, c = (diag[:-1], off[:-1]) if lev.padded else (diag, off)
+    return g
