@@ -242,6 +242,10 @@ def main() -> None:
     if not only <= set(parts):
         ap.error(f"--only: unknown part(s) {', '.join(sorted(only - set(parts)))}; expected {', '.join(parts)}")
     print(f"{os.cpu_count()} CPU(s); CPU time = user + system of the command's process (os.wait4)")
+    # bytecode written once, as an install or a first run does (where PYTHONDONTWRITEBYTECODE is set, every
+    # run would otherwise compile the package's modules again: 0.15-0.2 s that no user pays twice)
+    root = HERE.parent
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(root / "lib"), str(root / "tools")], check=False)
     with tempfile.TemporaryDirectory() as d:
         folder = Path(d)
         if "startup" in only:
