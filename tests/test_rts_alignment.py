@@ -27,6 +27,10 @@ def test_body_to_start_against_scipy_rotations():
     for k in range(t.size - 1):
         ref = ref * Rotation.from_rotvec((gyr[k] - bias) * (t[k + 1] - t[k]))
     np.testing.assert_allclose(c[-1], ref.as_matrix(), atol=1e-10)
+    for n in (1, 2, 3, 7, 64, t.size):  # the product tree, odd and even counts
+        last = body_to_start(t[:n], gyr[:n], bias, last_only=True)
+        assert last.shape == (1, 3, 3)
+        np.testing.assert_allclose(last[0], body_to_start(t[:n], gyr[:n], bias)[-1], atol=1e-12)
     np.testing.assert_allclose(np.einsum("kij,kil->kjl", c, c), np.broadcast_to(np.eye(3), c.shape), atol=1e-10)
 
 

@@ -17,17 +17,18 @@ import numpy as np
 from sportfusion.estimators.quest import quest
 
 
-def body_to_start(t: np.ndarray, gyr: np.ndarray, bias: np.ndarray) -> np.ndarray:
+def body_to_start(t: np.ndarray, gyr: np.ndarray, bias: np.ndarray, last_only: bool = False) -> np.ndarray:
     """Rotation matrices ``C_k`` (n, 3, 3) taking body-frame vectors at step k into the body frame of step 0.
 
     ``C_k+1 = C_k exp([w_k dt x])`` with the bias-corrected rate ``w_k = gyr_k - bias`` [rad/s] held over
-    each step (Rodrigues).
+    each step (Rodrigues).  ``last_only``: only ``C_{n-1}`` (1, 3, 3), by a pairwise product tree (n
+    products instead of n log n).
     """
     n = t.size
     c = np.empty((n, 3, 3))
     c[0] = np.eye(3)
     if n < 2:
-        return c
+        return c[-1:] if last_only else c
     phi = (gyr[:-1] - bias) * np.diff(t)[:, None]
     ang = np.linalg.norm(phi, axis=1)
     small = ang < 1e-12
@@ -37,6 +38,12 @@ def body_to_start(t: np.ndarray, gyr: np.ndarray, bias: np.ndarray) -> np.ndarra
     kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
     kx[:, 1, 0], kx[:, 2, 0], kx[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
     step = np.eye(3) + s[:, None, None] * kx + cc[:, None, None] * (kx @ kx)
+    if last_only:
+        while step.shape[0] > 1:  # (s0 s1)(s2 s3)...: the order of the factors is kept
+            if step.shape[0] % 2:
+                step = np.concatenate([step, np.eye(3)[None]])
+            step = step[0::2] @ step[1::2]
+        return step
     # prefix products step_0 @ ... @ step_k by doubling (log2(n) batched products, not n small ones):
     # after the round with shift d, step[k] is the product of the last 2d factors ending at k
     d = 1

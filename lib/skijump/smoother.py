@@ -160,7 +160,7 @@ def _forward_start(seg: SkiJumpInputs, xf: np.ndarray, x0: np.ndarray) -> np.nda
     k = xf.shape[0] - 1
     x = x0.copy()
     x[10:] = xf[k, 10:]
-    c = body_to_start(seg.t[: k + 1], seg.u[: k + 1, 0:3], xf[k, mdl.I_BG])
+    c = body_to_start(seg.t[: k + 1], seg.u[: k + 1, 0:3], xf[k, mdl.I_BG], last_only=True)
     q = rotations.quat_from_dcm(c[-1] @ m_bo(xf[k, 6:10] / np.linalg.norm(xf[k, 6:10])))
     x[6:10] = q if q[0] >= 0 else -q
     _start_velocity(seg, x)
