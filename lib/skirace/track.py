@@ -143,11 +143,11 @@ def smooth_track(
     if sk is not None:
         ok = np.isfinite(sk) & (sk > 0)
         for c in range(3):
-            if ok[:, c].any():
-                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
-            else:
+            if not ok[:, c].any():
                 sk = None
                 break
+            if not ok[:, c].all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
     rw = np.ones(k.size)
     if robust:
         vk = None if vel is None else np.asarray(vel, float)[k]
@@ -182,7 +182,12 @@ def smooth_track(
     val, d1, d2 = fit.spline.evaluate(t[rows])
     cols: dict[str, np.ndarray] = {}
 
+    every = rows.size == n  # every row gets a value (a GNSS-only table): no scatter into a NaN column
+
     def put(name: str, values: np.ndarray) -> None:
+        if every:
+            cols[name] = np.ascontiguousarray(values, dtype=float)
+            return
         out = np.full(n, np.nan)
         out[rows] = values
         cols[name] = out
@@ -191,7 +196,7 @@ def smooth_track(
         put(a, val[:, i])
         put(f"v{a}", d1[:, i])
         put(f"a{a}", d2[:, i])
-    put("speed", np.linalg.norm(d1, axis=1))
+    put("speed", np.sqrt(np.einsum("ij,ij->i", d1, d1)))
     put("distance", fit.spline.arc_length(t[rows]))
     # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product)
     ca, sa = np.cos(np.deg2rad(azimuth_deg)), np.sin(np.deg2rad(azimuth_deg))
@@ -200,11 +205,12 @@ def smooth_track(
     filled[rows] = in_gap[rows]
     cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
     if fit.std is not None:
-        edge = np.stack([np.interp(t[rows], tk, fit.std[:, i]) for i in range(3)], axis=1)
+        edge = _at_rows(fit.std, tk, t, rows, has)
         big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
         gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
         # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
-        resid = np.sqrt(np.mean((fit.spline.evaluate(tk)[0] - yk) ** 2, axis=0))
+        # (the spline's values at the knots are its knot values g: no evaluation needed)
+        resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
         inside = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
         for i, a in enumerate("xyz"):
             s = edge[:, i].copy()
@@ -232,6 +238,23 @@ def smooth_track(
         "penalty": [float(v) for v in fit.penalty],  # alpha = (1 - lambda) / lambda [s^3/m with weights in 1/m]
     }
     return TrackResult(cols, fit.lam, info, warnings)
+
+
+def _at_rows(values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray, has: np.ndarray) -> np.ndarray:
+    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``.
+
+    Equal to :func:`numpy.interp` per column; rows that are epochs (``has``) take their epoch's value
+    directly and only the others are interpolated (on a GNSS-only table nothing is).
+    """
+    ep = has[rows]
+    if ep.all() and rows.size == tk.size:
+        return values
+    out = np.empty((rows.size, values.shape[1]))
+    out[ep] = values[np.cumsum(has)[rows[ep]] - 1]
+    other = t[rows[~ep]]
+    for c in range(values.shape[1]):
+        out[~ep, c] = np.interp(other, tk, values[:, c])
+    return out
 
 
 def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResult:
