@@ -127,6 +127,11 @@ def test_reinsch_solve_matches_the_dense_smoother(n: int, d: int) -> None:
     assert np.allclose(g, g_ref, rtol=1e-10, atol=1e-12)
     assert np.allclose(gam, gam_ref, rtol=1e-8, atol=1e-9 * np.abs(gam_ref).max())
     assert np.all(gam[[0, -1]] == 0.0)
+    # the diagonal of (W + K)^-1 from the same factorization (GCV's trace) is the one minv_diag gives
+    g2, gam2, mdiag = _banded.reinsch(h, 1.0 / w, alpha, y, diag=True)
+    assert np.array_equal(g2, g) and np.array_equal(gam2, gam)
+    assert np.array_equal(mdiag, S._minv_diag(h, w, alpha))
+    assert np.allclose(mdiag, np.diag(np.linalg.inv(M)), rtol=1e-10, atol=0)
 
 
 @needs_c
@@ -174,7 +179,9 @@ def test_entry_points_refuse_wrong_buffers() -> None:
     with pytest.raises(ValueError):
         C.minv_diag(False, h, np.ones(4), 1.0, np.empty(5))  # winv one short
     with pytest.raises(ValueError):
-        C.reinsch(h, np.ones(5), 1.0, np.ones((5, 2)), np.empty((5, 2)), np.empty((5, 1)))
+        C.reinsch(h, np.ones(5), 1.0, np.ones((5, 2)), np.empty((5, 2)), np.empty((5, 1)), None)
+    with pytest.raises(ValueError):
+        C.reinsch(h, np.ones(5), 1.0, np.ones((5, 2)), np.empty((5, 2)), np.empty((5, 2)), np.empty(4))
     with pytest.raises(ValueError):
         C.evaluate(np.arange(3.0), np.ones((3, 1)), np.ones((3, 1)), np.ones(4, np.float32), *[np.empty(4)] * 3, False)
     with pytest.raises((ValueError, TypeError, BufferError)):

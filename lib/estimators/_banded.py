@@ -39,7 +39,9 @@ def _f64(a: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
-def reinsch(h: np.ndarray, winv: np.ndarray, alpha: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def reinsch(
+    h: np.ndarray, winv: np.ndarray, alpha: float, y: np.ndarray, diag: bool = False
+) -> tuple[np.ndarray, ...] | None:
     """Knot values and second derivatives ``(g, gamma)`` (each (n, d)) of the constant-penalty spline, in C.
 
     Parameters
@@ -48,10 +50,11 @@ def reinsch(h: np.ndarray, winv: np.ndarray, alpha: float, y: np.ndarray) -> tup
     winv : (n,) inverse weights [1/weight unit].
     alpha : penalty (finite, >= 0).
     y : (n, d) observations (e.g. [m]).
+    diag : also return ``diag((W + K)^{-1})`` (n,) from the same factorization (GCV's trace).
 
     Returns
     -------
-    (g, gamma) or None
+    (g, gamma) or (g, gamma, mdiag) or None
         None when the C extension is not available or the banded system lost positive
         definiteness (the caller then takes scipy's solve or the KKT system).
     """
@@ -61,9 +64,10 @@ def reinsch(h: np.ndarray, winv: np.ndarray, alpha: float, y: np.ndarray) -> tup
     y = _f64(y)
     g = np.empty_like(y)
     gam = np.empty_like(y)
-    if not mod.reinsch(_f64(h), _f64(winv), float(alpha), y, g, gam):
+    m = np.empty(y.shape[0]) if diag else None
+    if not mod.reinsch(_f64(h), _f64(winv), float(alpha), y, g, gam, m):
         return None
-    return g, gam
+    return (g, gam, m) if diag else (g, gam)
 
 
 def minv_diag(h: np.ndarray, winv: np.ndarray, alpha: float) -> np.ndarray:

@@ -120,20 +120,11 @@ static void release(Buf *bufs, int k) {
         }                                                                                                          \
         return acc;                                                                                                \
     }                                                                                                              \
-    static int NAME(const double *h, const T *winv, double alpha, Py_ssize_t n, T *out) {                          \
+    /* from the LDL^T factors (d, l1, l2) of B and the inverse spacings ih */                                  \
+    static void NAME##_factored(const double *ih, const T *winv, double alpha, Py_ssize_t n, const T *d,          \
+                                const T *l1, const T *l2, T *out) {                                                \
         Py_ssize_t m = n - 2;                                                                                      \
-        T *work = (T *)malloc(sizeof(T) * (size_t)(3 * m + 1));                                                    \
-        double *ih = (double *)malloc(sizeof(double) * (size_t)(n - 1));                                           \
-        if (!work || !ih) {                                                                                        \
-            free(work);                                                                                            \
-            free(ih);                                                                                              \
-            return -1;                                                                                             \
-        }                                                                                                          \
-        for (Py_ssize_t i = 0; i < n - 1; i++) ih[i] = 1.0 / h[i];                                                 \
-        T *d = work, *l1 = d + m, *l2 = l1 + m;                                                                    \
-        BANDS(h, ih, winv, alpha, m, d, l1, l2);                                                                   \
-        LDL(m, d, l1, l2);                                                                                         \
-        /* Z's row i (z0 diagonal, z1, z2 super-diagonals) and rows i+1 (z0_1, z1_1), i+2 (z0_2) */            \
+        /* Z's row i (z0 diagonal, z1, z2 super-diagonals) and rows i+1 (z0_1, z1_1), i+2 (z0_2) */                \
         T z0_1 = 0.0, z0_2 = 0.0, z1_1 = 0.0;                                                                      \
         for (Py_ssize_t i = m - 1; i >= -2; i--) {                                                                 \
             T z0 = 0.0, z1 = 0.0, z2 = 0.0;                                                                        \
@@ -153,6 +144,21 @@ static void release(Buf *bufs, int k) {
             z0_1 = z0;                                                                                             \
             z1_1 = z1;                                                                                             \
         }                                                                                                          \
+    }                                                                                                              \
+    static int NAME(const double *h, const T *winv, double alpha, Py_ssize_t n, T *out) {                          \
+        Py_ssize_t m = n - 2;                                                                                      \
+        T *work = (T *)malloc(sizeof(T) * (size_t)(3 * m + 1));                                                    \
+        double *ih = (double *)malloc(sizeof(double) * (size_t)(n - 1));                                           \
+        if (!work || !ih) {                                                                                        \
+            free(work);                                                                                            \
+            free(ih);                                                                                              \
+            return -1;                                                                                             \
+        }                                                                                                          \
+        for (Py_ssize_t i = 0; i < n - 1; i++) ih[i] = 1.0 / h[i];                                                 \
+        T *d = work, *l1 = d + m, *l2 = l1 + m;                                                                    \
+        BANDS(h, ih, winv, alpha, m, d, l1, l2);                                                                   \
+        LDL(m, d, l1, l2);                                                                                         \
+        NAME##_factored(ih, winv, alpha, n, d, l1, l2, out);                                                       \
         free(work);                                                                                                \
         free(ih);                                                                                                  \
         return 0;                                                                                                  \
@@ -278,17 +284,18 @@ done:
 }
 
 static const char doc_reinsch[] =
-    "reinsch(h, winv, alpha, y, g, gam)\n\n"
+    "reinsch(h, winv, alpha, y, g, gam, mdiag)\n\n"
     "Knot values g and second derivatives gam (both (n, d) float64, written) of the smoothing spline\n"
     "through y (n, d) with weights 1/winv and penalty alpha: (R + alpha Q^T W^-1 Q) gam = Q^T y by a\n"
     "banded LDL^T, g = y - alpha W^-1 Q gam.  Returns False (nothing usable written) when a pivot is\n"
-    "not positive and finite (the caller then solves the KKT system).";
+    "not positive and finite (the caller then solves the KKT system).  mdiag: None, or an (n,) float64\n"
+    "array that gets diag((W + K)^-1) from the same factorization (GCV's trace: one factorization per score).";
 
 static PyObject *py_reinsch(PyObject *self, PyObject *args) {
-    PyObject *oh, *ow, *oy, *og, *oc;
+    PyObject *oh, *ow, *oy, *og, *oc, *om;
     double alpha;
-    if (!PyArg_ParseTuple(args, "OOdOOO", &oh, &ow, &alpha, &oy, &og, &oc)) return NULL;
-    Buf b[5];
+    if (!PyArg_ParseTuple(args, "OOdOOOO", &oh, &ow, &alpha, &oy, &og, &oc, &om)) return NULL;
+    Buf b[6];
     memset(b, 0, sizeof b);
     PyObject *res = NULL;
     if (PyObject_GetBuffer(oh, &b[0].view, PyBUF_C_CONTIGUOUS) < 0) return NULL;
@@ -309,8 +316,9 @@ static PyObject *py_reinsch(PyObject *self, PyObject *args) {
     if (get_buf(og, &b[3], sizeof(double), n * d, 1, "reinsch g") < 0 ||
         get_buf(oc, &b[4], sizeof(double), n * d, 1, "reinsch gam") < 0)
         goto done;
+    if (om != Py_None && get_buf(om, &b[5], sizeof(double), n, 1, "reinsch mdiag") < 0) goto done;
     const double *h = b[0].view.buf, *winv = b[1].view.buf, *y = b[2].view.buf;
-    double *g = b[3].view.buf, *gam = b[4].view.buf;
+    double *g = b[3].view.buf, *gam = b[4].view.buf, *mdiag = b[5].held ? b[5].view.buf : NULL;
     Py_ssize_t m = n - 2;
     int ok = 1;
     double *w = (double *)malloc(sizeof(double) * (size_t)(3 * m + n));
@@ -356,12 +364,13 @@ static PyObject *py_reinsch(PyObject *self, PyObject *args) {
                 g[i * d + k] = y[i * d + k] - alpha * q * winv[i];
             }
         }
+        if (mdiag) minv_r_factored(ih, winv, alpha, n, dd, l1, l2, mdiag);
     }
     Py_END_ALLOW_THREADS;
     free(w);
     res = PyBool_FromLong(ok);
 done:
-    release(b, 5);
+    release(b, 6);
     return res;
 }
 

@@ -327,10 +327,16 @@ def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tupl
     w = np.asarray(w, float)
     h = np.diff(t)
     n = t.size
-    g, _ = _reinsch(h, y, w, alpha)
+    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled;
+    # in C the fit and diag(M^{-1}) share one factorization
+    both = _banded.reinsch(h, 1.0 / w, alpha, y, diag=True) if n > 2 and np.isfinite(alpha) else None
+    if both is not None:
+        g, _, mdiag = both
+    else:
+        g, _ = _reinsch(h, y, w, alpha)
+        mdiag = _minv_diag(h, w, alpha)
     r = y[:, 0] - g[:, 0]
-    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled
-    tr = float(np.sum(w * _minv_diag(h, w, alpha)))
+    tr = float(np.sum(w * mdiag))
     return float(np.sum(w * r * r) / n / (1.0 - tr / n) ** 2), tr
 
 
