@@ -219,11 +219,12 @@ def smooth_track(
         # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
         # (the spline's values at the knots are its knot values g: no evaluation needed)
         resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
-        inside_gap = gap_std(fit.spline, tk, gaps, tr, np.maximum(edge, resid))
         g = in_gap[rows]
+        inside_gap = gap_std(fit.spline, tk, gaps, tr, np.maximum(edge, resid)) if g.any() else None
         for i, a in enumerate("xyz"):
             s = edge[:, i].copy()
-            s[g] = inside_gap[g, i]
+            if inside_gap is not None:
+                s[g] = inside_gap[g, i]
             put(f"std_{a}", s)
     elif sigma is not None and segments:
         warnings.append("1-sigma is not computed with per-segment lambda")
@@ -234,9 +235,12 @@ def smooth_track(
             "(spline_filled; their std grows across the gap)"
         )
     if robust:
-        gw = np.full(n, np.nan)
-        gw[k] = rw
-        cols["gnss_weight"] = gw
+        if every_epoch:
+            cols["gnss_weight"] = rw
+        else:
+            gw = np.full(n, np.nan)
+            gw[k] = rw
+            cols["gnss_weight"] = gw
     info = {
         "epochs": int(k.size),
         "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
