@@ -182,10 +182,12 @@ def test_entry_points_refuse_wrong_buffers() -> None:
         C.reinsch(h, np.ones(5), 1.0, np.ones((5, 2)), np.empty((5, 2)), np.empty((5, 1)), None)
     with pytest.raises(ValueError):
         C.reinsch(h, np.ones(5), 1.0, np.ones((5, 2)), np.empty((5, 2)), np.empty((5, 2)), np.empty(4))
-    with pytest.raises(ValueError):
+    with pytest.raises(TypeError):  # float32 queries
         C.evaluate(np.arange(3.0), np.ones((3, 1)), np.ones((3, 1)), np.ones(4, np.float32), *[np.empty(4)] * 3, False)
     with pytest.raises((ValueError, TypeError, BufferError)):
         C.evaluate(np.arange(3.0), np.ones((3, 1)), np.ones((3, 1)), np.ones(4), *[np.empty(8)[::2]] * 3, False)
+    with pytest.raises(TypeError):  # int64 items have float64's size but are no floats
+        C.minv_diag(False, h, np.ones(5, np.int64), 1.0, np.empty(5))
 
 
 def test_gap_rows_are_found_by_bisection_as_by_mask() -> None:

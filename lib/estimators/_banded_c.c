@@ -24,11 +24,23 @@ typedef struct {
     int held;
 } Buf;
 
-static int get_buf(PyObject *obj, Buf *b, Py_ssize_t itemsize, Py_ssize_t count, int writable, const char *name) {
-    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+/* a C-contiguous buffer of float64 ("d") or complex128 ("Zd") items, native byte order */
+static int get_view(PyObject *obj, Buf *b, int writable) {
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
     b->held = 0;
     if (PyObject_GetBuffer(obj, &b->view, flags) < 0) return -1;
     b->held = 1;
+    const char *f = b->view.format ? b->view.format : "B";
+    if (*f == '@' || *f == '=' || (PY_LITTLE_ENDIAN && *f == '<')) f++;
+    if (strcmp(f, "d") != 0 && strcmp(f, "Zd") != 0) {
+        PyErr_Format(PyExc_TypeError, "expected float64 or complex128 items, got format '%s'", b->view.format);
+        return -1;
+    }
+    return 0;
+}
+
+static int get_buf(PyObject *obj, Buf *b, Py_ssize_t itemsize, Py_ssize_t count, int writable, const char *name) {
+    if (get_view(obj, b, writable) < 0) return -1;
     if (b->view.itemsize != itemsize || b->view.len != itemsize * count) {
         PyErr_Format(PyExc_ValueError, "%s: expected %zd items of %zd bytes, got %zd bytes", name, count, itemsize,
                      b->view.len);
@@ -188,11 +200,10 @@ static PyObject *py_inverse_bands(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "pOOOOOO", &complex_, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5])) return NULL;
     Buf b[6];
     memset(b, 0, sizeof b);
-    Py_ssize_t isz = complex_ ? (Py_ssize_t)sizeof(cdouble) : (Py_ssize_t)sizeof(double);
-    if (PyObject_GetBuffer(o[0], &b[0].view, PyBUF_C_CONTIGUOUS) < 0) return NULL;
-    b[0].held = 1;
-    Py_ssize_t m = b[0].view.len / isz;
     PyObject *res = NULL;
+    Py_ssize_t isz = complex_ ? (Py_ssize_t)sizeof(cdouble) : (Py_ssize_t)sizeof(double);
+    if (get_view(o[0], &b[0], 0) < 0) goto done;
+    Py_ssize_t m = b[0].view.len / isz;
     for (int k = 1; k < 6; k++)
         if (get_buf(o[k], &b[k], isz, k < 3 ? m : m + 2, k >= 3, "inverse_bands") < 0) goto done;
     if (b[0].view.itemsize != isz) {
@@ -258,8 +269,7 @@ static PyObject *py_minv_diag(PyObject *self, PyObject *args) {
     Buf b[3];
     memset(b, 0, sizeof b);
     PyObject *res = NULL;
-    if (PyObject_GetBuffer(oh, &b[0].view, PyBUF_C_CONTIGUOUS) < 0) return NULL;
-    b[0].held = 1;
+    if (get_view(oh, &b[0], 0) < 0) goto done;
     Py_ssize_t n = b[0].view.len / (Py_ssize_t)sizeof(double) + 1;
     Py_ssize_t isz = complex_ ? (Py_ssize_t)sizeof(cdouble) : (Py_ssize_t)sizeof(double);
     if (b[0].view.itemsize != (Py_ssize_t)sizeof(double) || n < 3) {
@@ -298,16 +308,14 @@ static PyObject *py_reinsch(PyObject *self, PyObject *args) {
     Buf b[6];
     memset(b, 0, sizeof b);
     PyObject *res = NULL;
-    if (PyObject_GetBuffer(oh, &b[0].view, PyBUF_C_CONTIGUOUS) < 0) return NULL;
-    b[0].held = 1;
+    if (get_view(oh, &b[0], 0) < 0) goto done;
     Py_ssize_t n = b[0].view.len / (Py_ssize_t)sizeof(double) + 1;
     if (b[0].view.itemsize != (Py_ssize_t)sizeof(double) || n < 3) {
         PyErr_SetString(PyExc_ValueError, "reinsch: h must be float64 with at least 2 entries");
         goto done;
     }
     if (get_buf(ow, &b[1], sizeof(double), n, 0, "reinsch winv") < 0) goto done;
-    if (PyObject_GetBuffer(oy, &b[2].view, PyBUF_C_CONTIGUOUS) < 0) goto done;
-    b[2].held = 1;
+    if (get_view(oy, &b[2], 0) < 0) goto done;
     Py_ssize_t d = b[2].view.len / (Py_ssize_t)sizeof(double) / n;
     if (b[2].view.itemsize != (Py_ssize_t)sizeof(double) || d < 1 || b[2].view.len != (Py_ssize_t)sizeof(double) * n * d) {
         PyErr_SetString(PyExc_ValueError, "reinsch: y must be float64 (n, d)");
@@ -410,8 +418,7 @@ static PyObject *py_evaluate(PyObject *self, PyObject *args) {
     memset(b, 0, sizeof b);
     PyObject *res = NULL;
     for (int k = 0; k < 4; k++) {
-        if (PyObject_GetBuffer(o[k], &b[k].view, PyBUF_C_CONTIGUOUS) < 0) goto done;
-        b[k].held = 1;
+        if (get_view(o[k], &b[k], 0) < 0) goto done;
         if (b[k].view.itemsize != (Py_ssize_t)sizeof(double)) {
             PyErr_SetString(PyExc_ValueError, "evaluate: float64 arrays expected");
             goto done;
@@ -494,8 +501,7 @@ static PyObject *py_arc_length(PyObject *self, PyObject *args) {
     memset(b, 0, sizeof b);
     PyObject *res = NULL;
     for (int k = 0; k < 6; k++) {
-        if (PyObject_GetBuffer(o[k], &b[k].view, PyBUF_C_CONTIGUOUS) < 0) goto done;
-        b[k].held = 1;
+        if (get_view(o[k], &b[k], 0) < 0) goto done;
         if (b[k].view.itemsize != (Py_ssize_t)sizeof(double)) {
             PyErr_SetString(PyExc_ValueError, "arc_length: float64 arrays expected");
             goto done;
