@@ -16,7 +16,7 @@ BATCH ?= batch-out
 
 all: test
 
-$(STAMP): pyproject.toml setup.py lib/skijump/_ski_c.c
+$(STAMP): pyproject.toml setup.py lib/skijump/_ski_c.c lib/estimators/_banded_c.c
 	@echo "installing dependencies into $(VENV), about a minute (newest versions pyproject.toml allows)"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'

@@ -1,14 +1,20 @@
 """Build of the optional C extensions; everything else is declared in pyproject.toml.
 
-``sportfusion.skijump._ski_c`` (rts-smooth's EKF + RTS loop) imports in about a millisecond where
-numba's import and first kernel load cost about 0.7 s of CPU (docs/speed.md).  It is optional: without
-a C compiler the install goes on and rts-smooth uses the numba kernel instead (same results).
+* ``sportfusion.estimators._banded_c``: the smoothing spline's banded solve, selected inverse,
+  evaluation and arc length (spline-smooth);
+* ``sportfusion.skijump._ski_c``: rts-smooth's EKF + RTS loop.
+
+Each imports in about a millisecond where numba's import and first kernel load cost 0.7-1 s of CPU
+(docs/speed.md).  Both are optional: without a C compiler and Python's headers the install goes on and
+the commands use scipy and the numba kernels instead (same results; ``SPORTFUSION_NATIVE=0`` forces
+that path).
 """
 
 from setuptools import Extension, setup
 
 setup(
     ext_modules=[
+        Extension("sportfusion.estimators._banded_c", sources=["lib/estimators/_banded_c.c"], optional=True),
         Extension("sportfusion.skijump._ski_c", sources=["lib/skijump/_ski_c.c"], optional=True),
     ]
 )

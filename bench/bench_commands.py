@@ -9,7 +9,8 @@ and the peer measured in this same run:
    it); peer: filterpy's ``ExtendedKalmanFilter`` + ``rts_smoother`` on the same model, per step
    (``bench_rts_speed.time_filterpy`` on a slice, CPU time).  Peak RSS of the command per step.
 2. ``spline-smooth`` at 1e5 and 1e6 epochs (linear in N?); peer: csaps' compute alone (the fit of the
-   three coordinates, CPU time, in this process).
+   three coordinates, CPU time, in this process).  Beside them the command's I/O floor: a process that
+   starts, imports, reads the same table and writes one with the same 25 columns (no spline).
 3. ``pf-holds`` on a 35 s climbing trial: times real time.
 4. Start-up: every command's ``--help`` and a no-op stage (``inspect`` on a 20-row table) against
    ``python -c "import numpy, pyarrow"`` (the floor), best of 3.
@@ -145,6 +146,24 @@ def rts(folder: Path, quick: bool) -> None:
         )
 
 
+# spline-smooth without the spline: start, imports, read, the output's columns (cheap copies), write to stdout
+IO_FLOOR = """
+import sys
+from sportfusion.tools import _cli
+sys.meta_path.insert(0, _cli._NoPandas)
+import numpy as np
+from sportfusion.core import io as sfio
+from sportfusion.core.schema import floats
+from sportfusion.core.session import with_columns
+table, meta = sfio.read_table(sys.argv[1])
+x = floats(table, "gnss_x")
+names = "x y z vx vy vz ax ay az speed distance course std_x std_y std_z gnss_weight".split()
+cols = {n: x * (1.0 + 1e-3 * i) for i, n in enumerate(names)}
+cols["spline_filled"] = np.zeros(x.size, bool)
+sfio.write_table(with_columns(table, cols), meta, None)
+"""
+
+
 def spline(folder: Path, quick: bool) -> None:
     import pyarrow as pa
 
@@ -179,10 +198,12 @@ def spline(folder: Path, quick: bool) -> None:
             peer = time.process_time() - c0
         except ImportError:
             pass
+        floor = best([sys.executable, "-c", IO_FLOOR, str(path)], 2, stdout=folder / "floor.parquet")[0]
         rows.append((n, cpu))
         print(
             f"  {n:>9,} epochs: {cpu:6.2f} s CPU {wall:6.2f} s wall ({cpu / n * 1e6:.2f} us/epoch); "
-            f"csaps compute alone {peer:.2f} s CPU: x{peer / cpu:.2f} (target >= 2 at 1e6, ours with I/O)"
+            f"csaps compute alone {peer:.2f} s CPU: x{peer / cpu:.2f} (target >= 2 at 1e6, ours with I/O); "
+            f"I/O floor {floor:.2f} s CPU (start, read, write; compute {cpu - floor:.2f} s)"
         )
     (n1, c1), (n2, c2) = rows
     print(f"  growth: x{c2 / c1:.1f} CPU for x{n2 / n1:.0f} epochs (linear: at most x{n2 / n1:.0f})")

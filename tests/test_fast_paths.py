@@ -1,7 +1,7 @@
 """Fast paths agree with their references numerically (never a timing).
 
-* the compiled banded inverse / diag((W+K)^-1) / spline evaluation / arc length (numba) against the
-  Python and numpy references of ``estimators.spline``;
+* the compiled banded inverse / diag((W+K)^-1) / spline evaluation / arc length (C extension and numba)
+  against the Python and numpy references of ``estimators.spline`` (more in ``test_banded_native.py``);
 * ``smoother.euler_jacobian`` (analytic) against central differences of ``euler_from_quat``;
 * ``smoother._interp_columns`` (column by column) against ``_interp_rows``.
 """
@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from sportfusion.core.rotations import euler_from_quat
+from sportfusion.estimators import _banded
 from sportfusion.estimators import spline as S
 from sportfusion.skijump import smoother as R
 
@@ -35,14 +36,20 @@ def test_compiled_banded_inverse_matches_python(n: int) -> None:
             assert np.max(np.abs(m.imag - mref.imag)) <= 1e-8 * np.max(np.abs(mref.imag))
 
 
-def test_compiled_spline_evaluation_matches_numpy(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("engine", ["c", "numba"])
+def test_compiled_spline_evaluation_matches_numpy(monkeypatch: pytest.MonkeyPatch, engine: str) -> None:
+    if engine == "c" and _banded.native() is None:
+        pytest.skip("the C extension is not built")
     rng = np.random.default_rng(2)
     t = np.cumsum(rng.uniform(0.05, 0.15, 3000))
     y = np.column_stack((np.sin(t / 3), np.cos(t / 5), 0.01 * t)) + 0.02 * rng.standard_normal((t.size, 3))
     sp = S.smoothing_spline(t, y, None, 0.9).spline
     tq = np.concatenate(([t[0] - 1.0], rng.uniform(t[0] - 2, t[-1] + 2, 5000), t[::7], [t[-1] + 3.0]))
+    if engine == "numba":
+        monkeypatch.setattr(_banded, "_NATIVE", None)
     monkeypatch.setattr(S, "_COMPILED_FROM", 1)
     fast = sp.evaluate(tq), sp.arc_length(tq)
+    monkeypatch.setattr(_banded, "_NATIVE", None)  # the numpy reference
     monkeypatch.setattr(S, "_COMPILED_FROM", 10**12)
     ref = sp.evaluate(tq), sp.arc_length(tq)
     for a, b in zip(fast[0], ref[0], strict=True):

@@ -37,6 +37,7 @@ import numpy as np
 
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import time_step_problem
+from sportfusion.estimators import _banded
 
 __all__ = [
     "NaturalCubicSpline",
@@ -97,10 +98,8 @@ class NaturalCubicSpline:
         t, g, c = self.t, self.g, self.gamma
         tq = np.asarray(tq, dtype=float)
         n = t.size
-        if n > 1 and tq.ndim == 1 and tq.size >= _COMPILED_FROM:
-            from sportfusion.estimators._banded_kernels import spline_eval
-
-            return spline_eval(t, np.ascontiguousarray(g, float), np.ascontiguousarray(c, float), tq)
+        if n > 1 and tq.ndim == 1 and (tq.size >= _COMPILED_FROM or _banded.native() is not None):
+            return _banded.evaluate(t, g, c, tq)
         if n == 1:
             z = np.zeros((tq.size, g.shape[1]))
             return np.broadcast_to(g[0], z.shape).copy(), z, z.copy()
@@ -134,11 +133,8 @@ class NaturalCubicSpline:
         t = self.t
         xg, wg = np.polynomial.legendre.leggauss(5)
         tq = np.asarray(tq, dtype=float)
-        if t.size > 1 and tq.ndim == 1 and max(tq.size, t.size) >= _COMPILED_FROM:
-            from sportfusion.estimators._banded_kernels import arc_length
-
-            g = np.ascontiguousarray(self.g, float)
-            return arc_length(t, g, np.ascontiguousarray(self.gamma, float), tq, xg, wg)
+        if t.size > 1 and tq.ndim == 1 and (max(tq.size, t.size) >= _COMPILED_FROM or _banded.native() is not None):
+            return _banded.arc_length(t, self.g, self.gamma, tq, xg, wg)
 
         def integral(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             mid, half = (a + b) / 2, (b - a) / 2
@@ -152,8 +148,8 @@ class NaturalCubicSpline:
         return cum[k] + integral(t[k], tq)
 
 
-# from this many points on, evaluation and arc length run compiled (numba, loaded on first use);
-# below, numpy (no numba import for small calls)
+# with the C extension evaluation and arc length always run compiled; without it, from this many points
+# on (numba, loaded on first use), below in numpy (no numba import for small calls)
 _COMPILED_FROM = 20_000
 
 
@@ -225,11 +221,8 @@ def _line_fit(t: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), compiled: O(m), ~10 ns per row."""
-    from sportfusion.estimators._banded_kernels import ldl_inverse_bands
-
-    ab = np.ascontiguousarray(ab)
-    return ldl_inverse_bands(ab[0], ab[1], ab[2])
+    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), compiled (C or numba): O(m)."""
+    return _banded.inverse_bands(ab[0], ab[1], ab[2])
 
 
 def _ldl_inverse_bands_py(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -312,10 +305,8 @@ def _qzqt_diag_py(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray)
 
 
 def _minv_diag(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
-    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); compiled, O(n)."""
-    from sportfusion.estimators._banded_kernels import minv_diag
-
-    return minv_diag(np.ascontiguousarray(h, float), np.ascontiguousarray(1.0 / w), float(alpha))
+    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); compiled (C or numba), O(n)."""
+    return _banded.minv_diag(h, 1.0 / w, alpha)
 
 
 def _minv_diag_py(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
@@ -336,22 +327,35 @@ def gcv_score(t: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tupl
     w = np.asarray(w, float)
     h = np.diff(t)
     n = t.size
-    g, _ = _reinsch(h, y, w, alpha)
+    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled;
+    # in C the fit and diag(M^{-1}) share one factorization
+    both = _banded.reinsch(h, 1.0 / w, alpha, y, diag=True) if n > 2 and np.isfinite(alpha) else None
+    if both is not None:
+        g, _, mdiag = both
+    else:
+        g, _ = _reinsch(h, y, w, alpha)
+        mdiag = _minv_diag(h, w, alpha)
     r = y[:, 0] - g[:, 0]
-    # tr(H) = tr(M^{-1} W) = sum_i w_i diag(M^{-1})_i  (= n - alpha sum diag(Q Z Q^T) / w), O(n) compiled
-    tr = float(np.sum(w * _minv_diag(h, w, alpha)))
+    tr = float(np.sum(w * mdiag))
     return float(np.sum(w * r * r) / n / (1.0 - tr / n) ** 2), tr
 
 
 def _reinsch(h: np.ndarray, y: np.ndarray, w: np.ndarray, alpha: float) -> tuple[np.ndarray, np.ndarray]:
-    """Knot values g and second derivatives gamma (both (n, d)) for a constant penalty."""
-    from scipy.linalg import solveh_banded
+    """Knot values g and second derivatives gamma (both (n, d)) for a constant penalty.
 
+    Solved in C (:func:`sportfusion.estimators._banded.reinsch`, banded LDL^T) where the extension is
+    built, else by scipy's banded Cholesky; a system that lost positive definiteness goes to the KKT solve.
+    """
     n = h.size + 1
     d = y.shape[1]
     if n == 2 or not np.isfinite(alpha):
         t = np.concatenate(([0.0], np.cumsum(h)))
         return _line_fit(t, y, w), np.zeros((n, d))
+    if _banded.native() is not None:
+        res = _banded.reinsch(h, 1.0 / w, alpha, y)
+        return res if res is not None else _solve_kkt(h, y, w, np.full(n - 1, alpha))
+    from scipy.linalg import solveh_banded
+
     ab = _reinsch_bands(h, 1.0 / w, alpha)
     try:
         inner = solveh_banded(ab, _qt(h, y), lower=True, check_finite=False)
@@ -650,6 +654,8 @@ def epoch_weights(w_amb: np.ndarray, sigma_pos: np.ndarray | None) -> np.ndarray
     s2 = s.reshape(s.shape[0], -1)
     ok2 = ok.reshape(s2.shape)
     for c in range(s2.shape[1]):
+        if ok2[:, c].all():  # nothing to fill (and the median of 1e6 sigmas costs 10-30 ms)
+            continue
         fill = np.median(s2[ok2[:, c], c]) if ok2[:, c].any() else np.median(s[ok])
         s2[~ok2[:, c], c] = fill
     s = s2.reshape(s.shape)

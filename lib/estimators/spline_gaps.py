@@ -92,10 +92,18 @@ def gap_std(
     ``sqrt(edge_std^2 + bridge^2)`` with the bridge profile of :func:`bridge_error_profile`.
     """
     out = np.full(edge_std.shape, np.nan)
+    # tq is sorted (the rows of a session): the rows strictly inside (a, b) are one slice, found by bisection
+    # (a mask over every row per gap cost O(rows x gaps): 0.2-0.4 s on 1e6 epochs with a few dozen short gaps)
+    ordered = tq.size < 2 or bool(np.all(tq[1:] >= tq[:-1]))
     for a, b in gaps:
-        m = (tq > a) & (tq < b)
-        if not m.any():
-            continue
+        if ordered:
+            m = slice(int(np.searchsorted(tq, a, side="right")), int(np.searchsorted(tq, b, side="left")))
+            if m.start >= m.stop:
+                continue
+        else:
+            m = (tq > a) & (tq < b)
+            if not m.any():
+                continue
         prof = bridge_error_profile(spline, tk, b - a, gaps, safety)
         u = (tq[m] - a) / (b - a)
         br = np.stack([np.interp(u, U, prof[:, c]) for c in range(prof.shape[1])], axis=1)

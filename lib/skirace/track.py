@@ -109,8 +109,10 @@ def smooth_track(
     k = np.flatnonzero(has)
     if k.size < 4:
         raise InputError(f"only {k.size} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
-    tk = t[k]
-    yk = pos[k]
+    every_epoch = k.size == t.size  # a GNSS-only table: every row is an epoch (no copies, no row search)
+    tk = t if every_epoch else t[k]
+    yk = pos if every_epoch else pos[k]
+    sk_in = None if sigma is None else np.asarray(sigma, float)[k]  # (a copy: changed in place below)
     if weighting == "uniform":
         # one weight for every epoch, on the scale of eq 6's fixed epochs so that lambda keeps its meaning
         sk0 = None if sigma is None else np.asarray(sigma, float)[k]
@@ -133,21 +135,20 @@ def smooth_track(
                 no_trans=no_trans,
                 edge_factor=edge_factor,
             )
-        sk = None if sigma is None else np.asarray(sigma, float)[k]
-        w = epoch_weights(w_amb, sk)
+        w = epoch_weights(w_amb, sk_in)  # (epoch_weights copies what it fills)
     else:
         raise InputError(f"weighting {weighting!r} is not eq6 or uniform")
-    sk = None if sigma is None else np.asarray(sigma, float)[k]
+    sk = sk_in
     if sk is not None and not np.isfinite(sk).any():
         sk = None
     if sk is not None:
         ok = np.isfinite(sk) & (sk > 0)
         for c in range(3):
-            if ok[:, c].any():
-                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
-            else:
+            if not ok[:, c].any():
                 sk = None
                 break
+            if not ok[:, c].all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
     rw = np.ones(k.size)
     if robust:
         vk = None if vel is None else np.asarray(vel, float)[k]
@@ -167,22 +168,35 @@ def smooth_track(
             )
     fit = smoothing_spline(tk, yk, w, lam, segments=segments, sigma=sk)
 
-    # rows that get a value: inside the span and not in a gap longer than max_gap
+    # rows that get a value: inside the span and not in a gap longer than max_gap (an epoch always does;
+    # only the rows without a position are searched among the epochs)
     n = t.size
-    inside = (t >= tk[0]) & (t <= tk[-1])
-    seg = np.clip(np.searchsorted(tk, t, side="right") - 1, 0, tk.size - 2)
-    span = tk[seg + 1] - tk[seg]
     step = float(np.median(np.diff(tk)))
-    in_gap = inside & ~has & (span > GAP_FACTOR * step)
-    too_long = inside & ~has & (span > max_gap)
-    cover = inside & ~too_long
+    in_gap = np.zeros(n, bool)
+    too_long = np.zeros(n, bool)
+    cover = has.copy()
+    nopos = np.flatnonzero(~has)
+    if nopos.size:
+        tn = t[nopos]
+        inside = (tn >= tk[0]) & (tn <= tk[-1])
+        seg = np.clip(np.searchsorted(tk, tn, side="right") - 1, 0, tk.size - 2)
+        span = tk[seg + 1] - tk[seg]
+        in_gap[nopos] = inside & (span > GAP_FACTOR * step)
+        too_long[nopos] = inside & (span > max_gap)
+        cover[nopos] = inside & ~(span > max_gap)
     if too_long.any():
         warnings.append(f"{int(too_long.sum())} row(s) inside data gaps longer than {max_gap:g} s are left null")
     rows = np.flatnonzero(cover)
-    val, d1, d2 = fit.spline.evaluate(t[rows])
+    tr = t if rows.size == n else t[rows]
+    val, d1, d2 = fit.spline.evaluate(tr)
     cols: dict[str, np.ndarray] = {}
 
+    every = rows.size == n  # every row gets a value (a GNSS-only table): no scatter into a NaN column
+
     def put(name: str, values: np.ndarray) -> None:
+        if every:
+            cols[name] = np.ascontiguousarray(values, dtype=float)
+            return
         out = np.full(n, np.nan)
         out[rows] = values
         cols[name] = out
@@ -191,25 +205,26 @@ def smooth_track(
         put(a, val[:, i])
         put(f"v{a}", d1[:, i])
         put(f"a{a}", d2[:, i])
-    put("speed", np.linalg.norm(d1, axis=1))
-    put("distance", fit.spline.arc_length(t[rows]))
+    put("speed", np.sqrt(np.einsum("ij,ij->i", d1, d1)))
+    put("distance", fit.spline.arc_length(tr))
     # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product)
     ca, sa = np.cos(np.deg2rad(azimuth_deg)), np.sin(np.deg2rad(azimuth_deg))
     put("course", np.arctan2(d1[:, 0] * sa + d1[:, 1] * ca, d1[:, 0] * ca - d1[:, 1] * sa))
-    filled = np.zeros(n, bool)
-    filled[rows] = in_gap[rows]
+    filled = in_gap & cover
     cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
     if fit.std is not None:
-        edge = np.stack([np.interp(t[rows], tk, fit.std[:, i]) for i in range(3)], axis=1)
+        edge = _at_rows(fit.std, tk, t, rows, has)
         big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
         gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
         # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
-        resid = np.sqrt(np.mean((fit.spline.evaluate(tk)[0] - yk) ** 2, axis=0))
-        inside = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
+        # (the spline's values at the knots are its knot values g: no evaluation needed)
+        resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
+        g = in_gap[rows]
+        inside_gap = gap_std(fit.spline, tk, gaps, tr, np.maximum(edge, resid)) if g.any() else None
         for i, a in enumerate("xyz"):
             s = edge[:, i].copy()
-            g = in_gap[rows]
-            s[g] = inside[g, i]
+            if inside_gap is not None:
+                s[g] = inside_gap[g, i]
             put(f"std_{a}", s)
     elif sigma is not None and segments:
         warnings.append("1-sigma is not computed with per-segment lambda")
@@ -220,9 +235,12 @@ def smooth_track(
             "(spline_filled; their std grows across the gap)"
         )
     if robust:
-        gw = np.full(n, np.nan)
-        gw[k] = rw
-        cols["gnss_weight"] = gw
+        if every_epoch:
+            cols["gnss_weight"] = rw
+        else:
+            gw = np.full(n, np.nan)
+            gw[k] = rw
+            cols["gnss_weight"] = gw
     info = {
         "epochs": int(k.size),
         "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
@@ -232,6 +250,23 @@ def smooth_track(
         "penalty": [float(v) for v in fit.penalty],  # alpha = (1 - lambda) / lambda [s^3/m with weights in 1/m]
     }
     return TrackResult(cols, fit.lam, info, warnings)
+
+
+def _at_rows(values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray, has: np.ndarray) -> np.ndarray:
+    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``.
+
+    Equal to :func:`numpy.interp` per column; rows that are epochs (``has``) take their epoch's value
+    directly and only the others are interpolated (on a GNSS-only table nothing is).
+    """
+    ep = has[rows]
+    if ep.all() and rows.size == tk.size:
+        return values
+    out = np.empty((rows.size, values.shape[1]))
+    out[ep] = values[np.cumsum(has)[rows[ep]] - 1]
+    other = t[rows[~ep]]
+    for c in range(values.shape[1]):
+        out[~ep, c] = np.interp(other, tk, values[:, c])
+    return out
 
 
 def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResult:
