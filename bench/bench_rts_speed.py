@@ -192,7 +192,7 @@ def main() -> None:
     except ImportError:
         fp = fp_cpu = float("nan")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    per_step = (3 * 22 + 253 + 13) * 8
+    per_step = (3 * 22 + 253 + 13 + 28) * 8  # x_filt, x_pred, x_smooth, packed P, residuals, std rows
     print(f"{'':44}{'time [s]':>10}{'us/step':>10}")
     rows = [(f"ours, {e} EKF+RTS, one pass (best of 3)", w) for e, (w, _) in best.items()]
     rows += [
