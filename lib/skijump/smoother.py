@@ -375,6 +375,11 @@ def smooth_inputs(
     state (mean only, same ``P0``), stopping early when the initial attitude changes by
     less than ``cfg.pass_tol_deg`` [deg]: this re-linearises the start, where an attitude
     error of degrees leaves the EKF's linear regime (``bench/bench_rts_accuracy.py --init``).
+    When the in-run alignment gave the attitude and ``cfg.start_pass`` is ``"forward"`` (the
+    default), one forward EKF run over that window replaces the smoothed ones
+    (:func:`_forward_start`).  Then the GNSS latency is estimated on the whole segment's smoothed
+    pass and, with a known lever arm, the fixes are moved to the IMU; each correction costs one
+    more run.
     """
     fast = _fast_engine(prefer_native=engine in ("auto", "c")) if engine in ("auto", "numba", "c") else None
     if engine == "numba" and (fast is None or not fast.__name__.endswith("smoother_fast")):
