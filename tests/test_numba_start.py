@@ -24,3 +24,13 @@ print("ok")
 def test_kernel_runs_without_the_scipy_linalg_package_and_scipy_linalg_still_imports() -> None:
     out = subprocess.run([sys.executable, "-c", PROG], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["no-linalg", "ok"], out
+
+
+def test_optional_extensions_are_loaded_unless_asked_not_to(monkeypatch) -> None:  # noqa: ANN001
+    from sportfusion.core.native import load_extension
+
+    assert load_extension("sportfusion.skijump._no_such_extension") is None  # not built: the fallback
+    monkeypatch.setenv("SPORTFUSION_NATIVE", "0")
+    assert load_extension("sportfusion.core.rotations") is None  # asked for the fallback
+    monkeypatch.setenv("SPORTFUSION_NATIVE", "1")
+    assert load_extension("sportfusion.core.rotations") is not None

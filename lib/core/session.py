@@ -355,33 +355,27 @@ def nonfinite_to_null(
         col = table.column(i)
         if name in keep or is_raw(name) or not pa.types.is_floating(col.type):
             continue
-        n = _null_where(table, i, lambda v: ~np.isfinite(v))
+        table, n = _null_where(table, i, lambda v: ~np.isfinite(v))
         if n:
-            counts[name] = int(n)
-            table = n.table
+            counts[name] = n
     return table, counts
 
 
-class _Nulled(int):
-    """A count of values made null, with the new table (``table``)."""
-
-    table: pa.Table
-
-
-def _null_where(table: pa.Table, i: int, bad_of: Callable[[np.ndarray], np.ndarray]) -> _Nulled:
+def _null_where(table: pa.Table, i: int, bad_of: Callable[[np.ndarray], np.ndarray]) -> tuple[pa.Table, int]:
     """Null the values of float column ``i`` where ``bad_of(values)`` is True (numpy, no pyarrow.compute:
-    its import alone costs a command 0.1 s).  Existing nulls stay null and are not counted."""
+    its import alone costs a command 0.1 s); returns the table and how many values were made null.
+    Existing nulls stay null and are not counted."""
     col = table.column(i)
     vals, valid = schema.float_values(col)
     with np.errstate(invalid="ignore"):
         bad = bad_of(vals)
     if valid is not None:
         bad &= valid
-    out = _Nulled(int(np.count_nonzero(bad)))
-    if out:
+    n = int(np.count_nonzero(bad))
+    if n:
         mask = bad if valid is None else bad | ~valid
-        out.table = table.set_column(i, table.field(i), pa.array(vals, type=col.type, mask=mask))
-    return out
+        table = table.set_column(i, table.field(i), pa.array(vals, type=col.type, mask=mask))
+    return table, n
 
 
 #: Physically possible magnitudes of raw sensor values [column unit]; beyond them (or NaN/inf) a
@@ -414,8 +408,7 @@ def drop_impossible(table: pa.Table) -> tuple[pa.Table, dict[str, int]]:
             if bound is None:
                 continue
             lo, hi = -bound, bound
-        n = _null_where(table, i, lambda v, lo=lo, hi=hi: ~((v >= lo) & (v <= hi)))  # NaN and inf fail too
+        table, n = _null_where(table, i, lambda v, lo=lo, hi=hi: ~((v >= lo) & (v <= hi)))  # NaN, inf fail too
         if n:
-            counts[name] = int(n)
-            table = n.table
+            counts[name] = n
     return table, counts

@@ -12,10 +12,11 @@ The functions here allocate the outputs and call whichever kernel is available.
 
 from __future__ import annotations
 
-import os
 from types import ModuleType
 
 import numpy as np
+
+from sportfusion.core.native import load_extension
 
 _UNSET = object()
 _NATIVE: ModuleType | None | object = _UNSET
@@ -25,13 +26,7 @@ def native() -> ModuleType | None:
     """The C extension module, or None when it is not built or ``SPORTFUSION_NATIVE=0``."""
     global _NATIVE
     if _NATIVE is _UNSET:
-        mod = None
-        if os.environ.get("SPORTFUSION_NATIVE", "1") != "0":
-            try:
-                from sportfusion.estimators import _banded_c as mod  # type: ignore[attr-defined, no-redef]
-            except ImportError:
-                mod = None
-        _NATIVE = mod
+        _NATIVE = load_extension("sportfusion.estimators._banded_c")
     return _NATIVE  # type: ignore[return-value]
 
 

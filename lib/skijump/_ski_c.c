@@ -18,7 +18,7 @@
 #define N 22
 #define NP 253
 #define NSTD 28
-#define NPAR 22
+#define NPAR 20
 
 typedef struct {
     Py_buffer view;

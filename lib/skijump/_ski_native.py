@@ -10,10 +10,11 @@ the numba kernel does the work.  This module also holds the layout both share (n
 
 from __future__ import annotations
 
-import os
 from types import ModuleType
 
 import numpy as np
+
+from sportfusion.core.native import load_extension
 
 N = 22
 NP = N * (N + 1) // 2
@@ -41,13 +42,7 @@ def native() -> ModuleType | None:
     """The C extension module, or None when it is not built or ``SPORTFUSION_NATIVE=0``."""
     global _NATIVE
     if _NATIVE is _UNSET:
-        mod = None
-        if os.environ.get("SPORTFUSION_NATIVE", "1") != "0":
-            try:
-                from sportfusion.skijump import _ski_c as mod  # type: ignore[attr-defined, no-redef]
-            except ImportError:
-                mod = None
-        _NATIVE = mod
+        _NATIVE = load_extension("sportfusion.skijump._ski_c")
     return _NATIVE  # type: ignore[return-value]
 
 
@@ -76,8 +71,7 @@ def ski_ekf_rts(
     rpos, rvel = _f64(rpos), _f64(rvel)
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
-        + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
-        + [0.0, 0.0],
+        + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)],
         dtype=np.float64,
     )
     fail, phase = mod.ekf_rts(
