@@ -137,8 +137,8 @@ def cold_compile_seconds() -> float:
             "from sportfusion.skijump.smoother_fast import ski_ekf_rts, N\n"
             "n=3; z=np.zeros; e=np.zeros(2)\n"
             "t=np.arange(n)*0.01; u=z((n,6)); pos=np.full((n,3),np.nan); pos[0]=0\n"
-            "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
-            "9.81,np.eye(3),np.ones(3),np.ones(6),np.ones(3),np.ones(3),1.0,1.0,1.0,1.0,1.0,0.0,1.0,e,e,0.0,1.0,e,e,"
+            "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
+            "9.81,np.eye(3),np.ones(3),np.ones((n,6)),np.ones(3),np.ones(3),1.0,1.0,1.0,1.0,1.0,1.0,0.0,1.0,e,e,0.0,1.0,e,e,"
             "False,True,True,True)\n"
         )
         subprocess.run([sys.executable, "-c", prog], env=env, check=True)

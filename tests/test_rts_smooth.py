@@ -240,8 +240,8 @@ def _native_built() -> bool:
     ["numba", pytest.param("c", marks=pytest.mark.skipif(not _native_built(), reason="C extension not built"))],
 )
 def test_compiled_engine_equals_reference_engine(engine: str) -> None:
-    """The compiled loops (numba; C) -- packed covariances, scalar updates -- reproduce ekf_rts with the model
-    callables."""
+    """The compiled loops (numba; C) -- packed covariances, scalar updates (zero-velocity ones included) --
+    reproduce ekf_rts with the model callables."""
     pytest.importorskip("numba")
     from sportfusion.skijump import smoother as R
     from sportfusion.skijump import smoother_inputs as RI
@@ -251,6 +251,7 @@ def test_compiled_engine_equals_reference_engine(engine: str) -> None:
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
     inp, _ = RI.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
+    assert inp.still is not None and inp.still.sum() > 100  # the rest at the gate: zero-velocity updates
     a = R.smooth_inputs(inp, hill, cfg, engine=engine)
     b = R.smooth_inputs(inp, hill, cfg, engine="numpy")
     np.testing.assert_allclose(a.x_filt, b.x_filt, rtol=0, atol=1e-9)

@@ -58,6 +58,12 @@ def _times(text: str | None, option: str) -> list[float] | None:
 )
 @click.option("--filtered", is_flag=True, help="Also write the forward-only EKF estimates as filt_ columns [flag].")
 @click.option(
+    "--no-zupt",
+    is_flag=True,
+    help="No zero-velocity updates where the athlete stands still (GNSS speed < 0.5 m/s and a quiet IMU "
+    "for >= 1 s) [flag].",
+)
+@click.option(
     "--lever-arm",
     metavar="X,Y,Z",
     default=None,
@@ -73,6 +79,7 @@ def main(
     config: str | None,
     no_hill_constraints: bool,
     filtered: bool,
+    no_zupt: bool,
     lever_arm: str | None,
 ) -> None:
     """Reconstruct a ski jumper's trajectory with the extended Rauch-Tung-Striebel
@@ -88,7 +95,9 @@ def main(
     make the attitude several times worse than no answer.  The initial attitude
     comes from the in-run (in-motion alignment); a GNSS time-stamp latency is
     estimated from the first pass and removed when it is at least 0.02 s; a
-    known lever arm to the antenna (--lever-arm) is taken off the fixes.  Output: every input column plus x y z [m] and vx vy vz
+    known lever arm to the antenna (--lever-arm) is taken off the fixes; where
+    the athlete stands still (sitting at the gate, standing after the stop) the
+    velocity is held at zero.  Output: every input column plus x y z [m] and vx vy vz
     [m/s] in the hill frame, q0..q3, roll pitch yaw [rad], bias_/scale_
     columns, std_ columns, and the constraint residuals c_q c_v_ir c_h_ir c_v_la."""
     table, meta = tool.read()
@@ -102,6 +111,8 @@ def main(
     cfg = load_config(config, SmootherConfig())
     if no_hill_constraints:
         cfg.hill_constraints = False
+    if no_zupt:
+        cfg.zupt = False
     if lever_arm is not None:
         cfg.lever_arm = tuple(parse_floats(lever_arm, 3, "--lever-arm"))  # type: ignore[assignment]
     bar = None

@@ -18,7 +18,8 @@
 #define N 22
 #define NP 253
 #define NSTD 28
-#define NPAR 20
+#define NPAR 21
+#define NRES 16
 
 typedef struct {
     Py_buffer view;
@@ -325,7 +326,8 @@ static void std_row(const double *x, double P[N][N], const double *mno, double *
 
 /* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
 static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
-                      const double *mag, const double *inrun, const double *landing, const double *x0, const double *P0,
+                      const double *mag, const double *inrun, const double *landing, const double *still,
+                      const double *x0, const double *P0,
                       const double *mno, const double *m_o, const double *qd, const double *irz, const double *irdz,
                       Py_ssize_t nir, const double *laz, const double *ladz, Py_ssize_t nla, const double *par,
                       double *x_filt, double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, int *phase) {
@@ -333,13 +335,14 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
     const double *rpos = par + 1, *rvel = par + 4;
     double ir_x0 = par[12], ir_step = par[13], la_x0 = par[14], la_step = par[15];
     int use_hill = par[16] != 0.0, use_vel = par[17] != 0.0, use_mag = par[18] != 0.0, smooth = par[19] != 0.0;
+    double rzu = par[20];
     double P[N][N], Pn[N][N], Phi[10][N], Qd[10][10], M[3][3], D[4][3][3];
     double x[N], xn[N], xp[N], h[N];
     memcpy(x, x0, sizeof(x));
     memcpy(P, P0, sizeof(P));
     *phase = 0;
     for (Py_ssize_t k = 0; k < n; k++) {
-        double *rk = resid + 13 * k;
+        double *rk = resid + NRES * k;
         memcpy(xp, x, sizeof(xp));
         memcpy(x_pred + N * k, xp, sizeof(xp));
         double nq = sqrt(xp[6] * xp[6] + xp[7] * xp[7] + xp[8] * xp[8] + xp[9] * xp[9]);
@@ -409,6 +412,14 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
                 h[2] = 1.0;
                 rk[12] = z - xp[2];
                 if (!scalar(x, P, xp, h, z - xp[2], rla / landing[k])) return k;
+            }
+        }
+        if (still[k] > 0.0) { /* zero velocity: v_B = 0 */
+            for (int i = 0; i < 3; i++) {
+                memset(h, 0, sizeof(h));
+                h[3 + i] = 1.0;
+                rk[13 + i] = -xp[3 + i];
+                if (!scalar(x, P, xp, h, -xp[3 + i], rzu / still[k])) return k;
             }
         }
         if (!pd_diag(P)) return k;
@@ -521,56 +532,56 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
 }
 
 static const char doc_ekf_rts[] =
-    "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
+    "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, still, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
     "        x_filt, x_pred, x_smooth, P_packed, resid, std) -> (fail, phase)\n\n"
-    "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1); par holds g0,\n"
+    "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
-    "use_mag, smooth (variances, not sigmas).  Outputs are written in place; fail is -1 or the step at which a\n"
+    "use_mag, smooth, r_zupt (variances, not sigmas).  Outputs are written in place; fail is -1 or the step at which a\n"
     "covariance stopped being positive definite, phase 0 update, 1 prediction, 2 backward pass.";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     Py_ssize_t n;
-    PyObject *o[23];
-    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+    PyObject *o[24];
+    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOOO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
                           &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
-                          &o[19], &o[20], &o[21], &o[22]))
+                          &o[19], &o[20], &o[21], &o[22], &o[23]))
         return NULL;
     if (n < 1) {
         PyErr_SetString(PyExc_ValueError, "ekf_rts: n must be at least 1");
         return NULL;
     }
     /* name, count (negative: at least), writable */
-    static const char *names[23] = {"t",    "u",     "pos",   "vel",   "mag",   "inrun",    "landing", "x0",
-                                    "P0",   "mno",   "m_o",   "qd",    "ir_z",  "ir_dz",    "la_z",    "la_dz",
-                                    "par",  "x_filt", "x_pred", "x_smooth", "P_packed", "resid", "std"};
-    Py_ssize_t counts[23] = {n,     6 * n,  3 * n,  3 * n,  3 * n,  n,      n,       N,
-                             N * N, 9,      3,      6 * n,  -2,     -2,     -2,      -2,
-                             NPAR,  N * n,  N * n,  N * n,  NP * n, 13 * n, NSTD * n};
-    Buf b[23];
+    static const char *names[24] = {"t",   "u",      "pos",    "vel",      "mag",      "inrun", "landing", "still",
+                                    "x0",  "P0",     "mno",    "m_o",      "qd",       "ir_z",  "ir_dz",   "la_z",
+                                    "la_dz", "par",  "x_filt", "x_pred",   "x_smooth", "P_packed", "resid", "std"};
+    Py_ssize_t counts[24] = {n,     6 * n, 3 * n, 3 * n, 3 * n, n,     n,      n,
+                             N,     N * N, 9,     3,     6 * n, -2,    -2,     -2,
+                             -2,    NPAR,  N * n, N * n, N * n, NP * n, NRES * n, NSTD * n};
+    Buf b[24];
     int k;
-    for (k = 0; k < 23; k++) {
-        if (get_buf(o[k], &b[k], counts[k], k >= 17, names[k]) < 0) break;
+    for (k = 0; k < 24; k++) {
+        if (get_buf(o[k], &b[k], counts[k], k >= 18, names[k]) < 0) break;
     }
     PyObject *res = NULL;
-    if (k == 23) {
-        Py_ssize_t nir = b[12].view.len / 8, nla = b[14].view.len / 8;
-        if (b[13].view.len / 8 != nir || b[15].view.len / 8 != nla) {
+    if (k == 24) {
+        Py_ssize_t nir = b[13].view.len / 8, nla = b[15].view.len / 8;
+        if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
             PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
         } else {
-            const double *p[17];
-            for (int i = 0; i < 17; i++) p[i] = (const double *)b[i].view.buf;
+            const double *p[18];
+            for (int i = 0; i < 18; i++) p[i] = (const double *)b[i].view.buf;
             int phase = 0;
             Py_ssize_t fail;
             Py_BEGIN_ALLOW_THREADS
-            fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], nir,
-                       p[14], p[15], nla, p[16], (double *)b[17].view.buf, (double *)b[18].view.buf,
-                       (double *)b[19].view.buf, (double *)b[20].view.buf, (double *)b[21].view.buf,
-                       (double *)b[22].view.buf, &phase);
+            fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+                       p[14], nir, p[15], p[16], nla, p[17], (double *)b[18].view.buf, (double *)b[19].view.buf,
+                       (double *)b[20].view.buf, (double *)b[21].view.buf, (double *)b[22].view.buf,
+                       (double *)b[23].view.buf, &phase);
             Py_END_ALLOW_THREADS
             res = Py_BuildValue("ni", fail, phase);
         }
     }
-    for (int i = 0; i <= k && i < 23; i++)
+    for (int i = 0; i <= k && i < 24; i++)
         if (b[i].held) PyBuffer_Release(&b[i].view);
     return res;
 }

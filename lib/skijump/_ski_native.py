@@ -21,7 +21,18 @@ NP = N * (N + 1) // 2
 #: Columns of the standard-deviation rows: the 22 states, the hill-frame velocity (3), roll/pitch/yaw (3).
 NSTD = N + 6
 #: Residual blocks returned by ``ski_ekf_rts`` (name, width).
-RESIDUALS = (("c_q", 1), ("gnss_pos", 3), ("gnss_vel", 3), ("mag", 3), ("c_v_ir", 1), ("c_h_ir", 1), ("c_v_la", 1))
+RESIDUALS = (
+    ("c_q", 1),
+    ("gnss_pos", 3),
+    ("gnss_vel", 3),
+    ("mag", 3),
+    ("c_v_ir", 1),
+    ("c_h_ir", 1),
+    ("c_v_la", 1),
+    ("zupt", 3),
+)
+#: columns of the residual array
+NRES = sum(w for _, w in RESIDUALS)
 
 
 def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -51,8 +62,8 @@ def _f64(a: object) -> np.ndarray:
 
 
 def ski_ekf_rts(
-    t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
-    ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
+    t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
+    rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
 ):  # fmt: skip  # noqa: ANN001, ANN201
     """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
 
@@ -66,17 +77,21 @@ def ski_ekf_rts(
     x_pred = np.empty((n, N))
     x_s = np.empty((n, N)) if smooth else x_filt
     pbuf = np.empty((n, NP))
-    resid = np.full((n, 13), np.nan)
+    resid = np.full((n, NRES), np.nan)
     std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
     rpos, rvel = _f64(rpos), _f64(rvel)
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
-        + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)],
+        + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
+        + [rzu],
         dtype=np.float64,
     )
     fail, phase = mod.ekf_rts(
         n,
-        *(_f64(a) for a in (t, u, pos, vel, mag, inrun, landing, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz)),
+        *(
+            _f64(a)
+            for a in (t, u, pos, vel, mag, inrun, landing, still, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz)
+        ),
         par,
         x_filt,
         x_pred,

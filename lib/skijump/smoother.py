@@ -19,6 +19,10 @@ Constraint windows (eqs 32-34, 51), per jump of the session:
   constraint starts ``la_delay`` seconds after it and its weight (inverse
   variance) ramps linearly from 0 to full over ``la_ramp`` seconds.
 
+Beyond the paper, a zero-velocity update ``v_B = 0`` (1-sigma ``r_zupt`` per step) on the steps where the
+athlete stands still (:func:`sportfusion.skijump.smoother_inputs.still_steps`: sitting at the gate,
+standing after the stop), so that the rests do not drift between GNSS fixes.
+
 Initial state (paper §4.1): position and NED velocity of the first GNSS fix,
 attitude by QUEST (:func:`sportfusion.estimators.quest.quest`) from the mean
 accelerometer and magnetometer samples of the rest at the start (at least the
@@ -184,6 +188,9 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
     H_pos[:, 0:3] = np.eye(3)
     H_y = np.zeros((1, mdl.N))
     H_y[0, 1] = 1.0
+    H_v = np.zeros((3, mdl.N))
+    H_v[:, 3:6] = np.eye(3)
+    still = inp.still if inp.still is not None else np.zeros(inp.t.size)
 
     def propagate(k: int, x: np.ndarray):
         u0, u1 = inp.u[k], inp.u[k + 1]
@@ -213,6 +220,8 @@ def _model_callables(inp: SkiJumpInputs, cfg: SmootherConfig, hill: Hill | None)
                 H = np.zeros((1, mdl.N))
                 H[0, 0], H[0, 2] = -dz, 1.0
                 out.append(Measurement(np.array([z - x[2]]), H, np.array([[cfg.r_c_v_la**2 / wl]]), "c_v_la"))
+        if still[k] > 0:  # zero velocity: v_B = 0
+            out.append(Measurement(-x[3:6], H_v, np.eye(3) * (cfg.r_zupt**2 / still[k]), "zupt"))
         return out
 
     return propagate, measure
@@ -273,6 +282,7 @@ def _run_fast(  # noqa: ANN202
             seg.mag,
             seg.inrun,
             seg.landing,
+            seg.still if seg.still is not None else np.zeros(seg.t.size),
             x0,
             P0,
             float(seg.g0),
@@ -286,6 +296,7 @@ def _run_fast(  # noqa: ANN202
             float(cfg.r_c_v_ir**2),
             float(cfg.r_c_h_ir**2),
             float(cfg.r_c_v_la**2),
+            float(cfg.r_zupt**2),
             ir.x0 if ir else 0.0,
             ir.step if ir else 1.0,
             ir.z if ir else empty,

@@ -38,7 +38,7 @@ from sportfusion.core._numba import preload_cython_blas
 preload_cython_blas()  # before numba: its BLAS check then skips importing the scipy.linalg package
 from numba import njit  # noqa: E402
 
-from sportfusion.skijump._ski_native import NP, NSTD, RESIDUALS, N, unpack_many  # noqa: E402, F401  (the shared layout)
+from sportfusion.skijump._ski_native import NP, NRES, NSTD, RESIDUALS, N, unpack_many  # noqa: E402, F401  (the shared layout)
 
 #: fast-math flags: re-association (vectorised sums) but no "no-NaN/no-inf" assumption, so the
 #: finiteness checks stay.
@@ -375,8 +375,8 @@ def _std_row(x, P, mno, out, M, D, J):
 
 @njit(cache=True, fastmath=_FM)
 def ski_ekf_rts(
-    t, u, pos, vel, mag, inrun, landing, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
-    ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
+    t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
+    rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
 ):  # fmt: skip
     """Forward EKF and backward RTS over all steps (see the module text); ``smooth`` False: the forward
     pass only (``x_smooth`` is then ``x_filt`` and the covariances are the filtered ones).
@@ -385,7 +385,7 @@ def ski_ekf_rts(
     -------
     x_filt, x_smooth : (n, 22)
     P_smooth : (n, 253) packed
-    resid : (n, 13) innovations (RESIDUALS order), NaN where absent
+    resid : (n, 16) innovations (RESIDUALS order), NaN where absent
     fail : int, -1 or the step at which a covariance stopped being positive definite
     phase : int, 0 update, 1 prediction, 2 backward pass
     std : (n, NSTD) smoothed standard deviations (:func:`_std_row`; (0, NSTD) when not ``smooth``)
@@ -394,7 +394,7 @@ def ski_ekf_rts(
     x_filt = np.empty((n, N))
     x_pred = np.empty((n, N))
     Pbuf = np.empty((n, NP))
-    resid = np.full((n, 13), np.nan)
+    resid = np.full((n, NRES), np.nan)
     M = np.empty((3, 3))
     D = np.empty((4, 3, 3))
     Phi = np.empty((10, N))
@@ -482,6 +482,13 @@ def ski_ekf_rts(
                 h[0], h[2] = -dz, 1.0
                 resid[k, 12] = z - xp[2]
                 if not _scalar(x, P, xp, h, z - xp[2], rla / landing[k], Ph, kv):
+                    return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
+        if still[k] > 0.0:  # zero velocity: v_B = 0
+            for i in range(3):
+                h[:] = 0.0
+                h[3 + i] = 1.0
+                resid[k, 13 + i] = -xp[3 + i]
+                if not _scalar(x, P, xp, h, -xp[3 + i], rzu / still[k], Ph, kv):
                     return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))
         if not _ok(P):
             return x_filt, x_filt, Pbuf, resid, k, 0, np.empty((0, NSTD))

@@ -7,6 +7,7 @@
   in-run (the last rest at the gate, at most ``max_rest`` s of it) to the take-off; ``c_V,LA`` from
   ``la_delay`` s after the touch-down, its weight ramping over ``la_ramp`` s (errata), to the end of the
   first rest after it;
+* :func:`still_steps` -- where the athlete stands still (GNSS speed and IMU spread): zero-velocity updates;
 * :func:`session_inputs` -- the IMU samples as steps [s], GNSS in the hill frame [m] and NED velocity
   [m/s], magnetometer [uT] on the step they fall on, the profile tables;
 * :func:`segments` -- the session cut at IMU gaps longer than ``max_gap`` [s].
@@ -75,8 +76,10 @@ class SmootherConfig:
     r_c_v_ir: float = 0.1
     r_c_h_ir: float = 0.1
     r_c_v_la: float = 0.1
+    r_zupt: float = 0.05  # zero-velocity update while still [m/s], per IMU step
     # switches
     hill_constraints: bool = True
+    zupt: bool = True  # zero-velocity updates where the athlete stands still (:func:`still_steps`)
     use_gnss_vel: bool = True
     use_mag: bool = True
     # saturated IMU samples (sportfusion.skijump.saturation): ranges (0: found from the data), inflated noise
@@ -95,6 +98,12 @@ class SmootherConfig:
     init_rest_gyr: float = 0.15
     init_rest_acc: float = 1.5
     max_gap: float = 1.0
+    # still (zero-velocity) detection: GNSS speed (running median of 9 epochs) and the IMU's spread over a window
+    zupt_speed: float = 0.5
+    zupt_window: float = 0.5
+    zupt_acc: float = 0.3
+    zupt_gyr: float = 0.2
+    zupt_min: float = 1.0
     passes: int = 2
     lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # IMU -> GNSS antenna, body frame [m]
     estimate_latency: bool = True  # GNSS time-stamp latency from the first pass (skijump.alignment)
@@ -208,6 +217,7 @@ class SkiJumpInputs:
     inrun: np.ndarray  # (n,) bool: c_V,IR and c_H,IR active
     landing: np.ndarray  # (n,) weight 0..1 of c_V,LA
     clipped: np.ndarray | None = None  # (n, 6) bool: gyro and accelerometer axes clipped (sensor range)
+    still: np.ndarray | None = None  # (n,) weight 0..1 of the zero-velocity update (0: moving)
     mag_disturbed: np.ndarray | None = None  # (n,) bool: magnetometer samples skipped as disturbed
 
 
@@ -471,8 +481,66 @@ def session_inputs(
         landing=landing,
         clipped=clipped_steps(t, u, cfg),
         mag_disturbed=disturbed,
+        still=still_steps(t, u, st, sv, cfg) if cfg.zupt else None,
     )
     return inp, frame
+
+
+def _moving_std(x: np.ndarray, half: int) -> np.ndarray:
+    """Per-column standard deviation over the centred window of ``2 half + 1`` samples (shorter at the ends)."""
+    n = x.shape[0]
+    c1 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)))
+    c2 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x * x, axis=0)))
+    lo = np.maximum(np.arange(n) - half, 0)
+    hi = np.minimum(np.arange(n) + half + 1, n)
+    cnt = (hi - lo)[:, None]
+    mean = (c1[hi] - c1[lo]) / cnt
+    return np.sqrt(np.maximum((c2[hi] - c2[lo]) / cnt - mean * mean, 0.0))
+
+
+def still_steps(
+    t: np.ndarray, u: np.ndarray, speed_t: np.ndarray, speed: np.ndarray, cfg: SmootherConfig
+) -> np.ndarray:
+    """Weight (n,) of the zero-velocity update per IMU step: 1 where the athlete stands still, else 0.
+
+    Still: the GNSS speed's running median over 9 epochs (linearly interpolated to the step, within
+    ``max_gap``) below ``zupt_speed`` [m/s], and over the centred ``zupt_window`` [s] every axis's
+    standard deviation below ``zupt_acc`` [m/s^2] (accelerometer) and ``zupt_gyr`` [rad/s] (gyroscope) --
+    biases do not enter, only the spread; runs shorter than ``zupt_min`` [s] are dropped.  Sitting at the
+    gate and standing after the stop qualify; sliding slowly does not (GNSS speed), nor does an arm
+    swinging while the athlete stands (IMU spread).  Without GNSS speeds nothing is still.
+
+    Parameters
+    ----------
+    t : ndarray (n,)
+        IMU step times [s].
+    u : ndarray (n, 6)
+        Gyro [rad/s] and accelerometer [m/s^2] samples.
+    speed_t, speed : ndarray (m,)
+        GNSS epochs [s] and speed [m/s] (:func:`sportfusion.skijump.events.gnss_speed`).
+    cfg : SmootherConfig
+    """
+    out = np.zeros(t.size)
+    if speed.size < 2 or t.size < 3:
+        return out
+    slow = running_median(speed, 9) < cfg.zupt_speed
+    j = np.clip(np.searchsorted(speed_t, t), 1, speed_t.size - 1)
+    near = np.maximum(np.abs(t - speed_t[j - 1]), np.abs(speed_t[j] - t)) <= cfg.max_gap
+    inside = (t >= speed_t[0]) & (t <= speed_t[-1]) & near & (speed_t[j] - speed_t[j - 1] <= cfg.max_gap)
+    still = inside & slow[j - 1] & slow[j]
+    for a, b in segments(t, cfg.max_gap):
+        if b - a < 3:
+            still[a:b] = False
+            continue
+        half = max(1, int(round(0.5 * cfg.zupt_window / np.median(np.diff(t[a:b])))))
+        sd = _moving_std(u[a:b], half)
+        still[a:b] &= (sd[:, 0:3].max(axis=1) < cfg.zupt_gyr) & (sd[:, 3:6].max(axis=1) < cfg.zupt_acc)
+    # drop runs shorter than zupt_min
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], still.astype(np.int8), [0]))))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        if t[b - 1] - t[a] >= cfg.zupt_min:
+            out[a:b] = 1.0
+    return out
 
 
 def _check_hill_near(pos: np.ndarray, hill: Hill, limit: float = 1000.0) -> None:
@@ -511,4 +579,5 @@ def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
         inrun=inp.inrun[sl],
         landing=inp.landing[sl],
         clipped=None if inp.clipped is None else inp.clipped[sl],
+        still=None if inp.still is None else inp.still[sl],
     )
