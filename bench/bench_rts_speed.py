@@ -109,6 +109,10 @@ def time_filterpy(inp, hill, cfg, n: int) -> float:  # noqa: ANN001
             H = np.zeros((1, mdl.N))
             H[0, 0], H[0, 2] = -dz, 1.0
             blocks.append((np.zeros(1), np.array([x[2] - z]), H, np.array([cfg.r_c_v_la**2 / seg.landing[k]])))
+        if seg.still is not None and seg.still[k] > 0:  # zero-velocity update
+            H = np.zeros((3, mdl.N))
+            H[:, 3:6] = np.eye(3)
+            blocks.append((np.zeros(3), x[3:6], H, np.full(3, cfg.r_zupt**2 / seg.still[k])))
         zz = np.concatenate([b[0] for b in blocks])
         hx = np.concatenate([b[1] for b in blocks])
         HH = np.vstack([b[2] for b in blocks])

@@ -199,7 +199,7 @@ static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], do
 
 /* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite */
 static int scalar(double *x, double P[N][N], const double *xp, const double *h, double r0, double var) {
-    double Ph[N], k[N];
+    double Ph[N];
     double r = r0;
     for (int i = 0; i < N; i++)
         if (h[i] != 0.0) r -= h[i] * (x[i] - xp[i]);
@@ -213,14 +213,17 @@ static int scalar(double *x, double P[N][N], const double *xp, const double *h, 
     for (int i = 0; i < N; i++) s0 += h[i] * Ph[i];
     double s = s0 + var;
     if (!(s > 0.0)) return 0;
-    for (int i = 0; i < N; i++) k[i] = Ph[i] / s;
-    for (int i = 0; i < N; i++) x[i] += k[i] * r;
-    for (int i = 0; i < N; i++)
-        for (int j = i; j < N; j++) {
-            double v = P[i][j] - k[i] * Ph[j] - Ph[i] * k[j] + s * k[i] * k[j];
-            P[i][j] = v;
-            P[j][i] = v;
-        }
+    /* the expanded Joseph form with the optimal gain k = Ph / s is P - Ph Ph^T / s: one symmetric rank-1
+       update by g = Ph / sqrt(s), row by row (contiguous, and g_i g_j = g_j g_i keeps P exactly symmetric) */
+    double rs = r / s, g[N], sq = 1.0 / sqrt(s);
+    for (int i = 0; i < N; i++) {
+        x[i] += Ph[i] * rs;
+        g[i] = Ph[i] * sq;
+    }
+    for (int i = 0; i < N; i++) {
+        double gi = g[i];
+        for (int j = 0; j < N; j++) P[i][j] -= gi * g[j];
+    }
     return 1;
 }
 

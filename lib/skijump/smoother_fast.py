@@ -9,7 +9,8 @@ this one with to round-off): eqs 10-21 with the model of
   at a time, every residual and Jacobian evaluated at the prior ``x_{k|k-1}``
   and corrected by ``-h (x - x_{k|k-1})`` for the rows applied before it: with
   a diagonal ``R`` this is algebraically the stacked update; each scalar update
-  uses the expanded (symmetric) Joseph form;
+  is the Joseph form with the optimal gain, which reduces to the symmetric rank-1
+  ``P - (P h)(P h)^T / s`` (computed as ``g g^T`` with ``g = P h / sqrt(s)``);
 * covariances are stored packed (upper triangle, 253 numbers for 22 states),
   and the smoothed covariance overwrites the filtered one in the backward pass:
   memory is one packed covariance and three state vectors per step;
@@ -247,9 +248,11 @@ def _predict_cov(P, Phi, Qd, out, T):
 
 @njit(cache=True, fastmath=_FM)
 def _scalar(x, P, xp, h, r0, var, Ph, k):
-    """One scalar update: residual r0 - h (x - xp), expanded Joseph form. Returns False if not PD.
+    """One scalar update: residual r0 - h (x - xp). Returns False if not PD.
 
-    ``Ph`` and ``k`` (N,) are work arrays."""
+    The expanded Joseph form with the optimal gain ``k = Ph / s`` equals ``P - Ph Ph^T / s``: one symmetric
+    rank-1 update by ``g = Ph / sqrt(s)`` (``g_i g_j = g_j g_i`` keeps P exactly symmetric).
+    ``Ph`` and ``k`` (N,) are work arrays (``k`` holds g)."""
     r = r0
     for i in range(N):
         if h[i] != 0.0:
@@ -266,15 +269,15 @@ def _scalar(x, P, xp, h, r0, var, Ph, k):
     s = s0 + var
     if not (s > 0.0):
         return False
+    rs = r / s
+    sq = 1.0 / np.sqrt(s)
     for i in range(N):
-        k[i] = Ph[i] / s
+        x[i] += Ph[i] * rs
+        k[i] = Ph[i] * sq
     for i in range(N):
-        x[i] += k[i] * r
-    for i in range(N):
-        for j in range(i, N):
-            v = P[i, j] - k[i] * Ph[j] - Ph[i] * k[j] + s * k[i] * k[j]
-            P[i, j] = v
-            P[j, i] = v
+        gi = k[i]
+        for j in range(N):
+            P[i, j] -= gi * k[j]
     return True
 
 
