@@ -5,8 +5,12 @@ Prints, in one process:
    eigen-decomposition (numpy ``eigh``), against ``ahrs.filters.QUEST`` per
    sample, with the largest attitude difference [deg] on the common samples;
 2. the attitude error against the simulator's truth in low dynamics (standing
-   start, f = -g) and high dynamics (the run, f from the GNSS spline), beside
-   the paper's statement ("several degrees" in high dynamics).
+   start, f = -g) and high dynamics (the run, f from the GNSS spline), of the
+   DMC alone (per sample, the paper's method) and gyro-stabilised (the
+   simulator's MEMS gyro fused over the run, ``dmc-attitude``'s default when
+   ``gyr_*`` are present), beside the paper's statement ("several degrees" in
+   high dynamics) and the DMC-alone figure before the gyro (issue 19).  Bench
+   seeds 1-5; the gyro path's defaults were chosen on seeds 11-30.
 
 Peers (``pip install ahrs``) that are missing are reported and skipped.
 """
@@ -85,8 +89,16 @@ def speed() -> None:
 
 
 def accuracy() -> None:
-    print("== attitude error against the simulator's truth (median / 90th percentile) [deg]")
-    print(f"  {'seed':>4} {'low dynamics':>13} {'high dynamics':>14} {'p90':>6} {'a_dmc err [m/s^2]':>18}")
+    print("== attitude error against the simulator's truth (median; p90: 90th percentile) [deg]")
+    print(
+        f"  {'':4} {'low dynamics':>17} {'high dynamics, DMC alone':>25} {'high dynamics, gyro+DMC':>31}"
+        f" {'a_dmc err [m/s^2]':>18}"
+    )
+    print(
+        f"  {'seed':>4} {'DMC':>8} {'gyro':>8} {'median':>12} {'p90':>12} {'median':>10} {'p90':>9} {'all rows':>10}"
+        f" {'DMC':>8} {'gyro':>9}"
+    )
+    highs, dmc_highs = [], []
     for seed in range(1, 6):
         s = simulate_skirace(SkiRaceConfig(seed=seed))
         T, tr, meta = s.session, s.truth, s.meta
@@ -99,25 +111,49 @@ def accuracy() -> None:
         site = tuple(meta["frame"]["origin"])
         when = meta["time"]["epoch_utc"]
         acc, mag = cols(["acc_x", "acc_y", "acc_z"]), cols(["mag_x", "mag_y", "mag_z"])
-        low = dmc_session(t, acc, mag, azimuth_deg=az, site=site, when=when)
+        gyr = cols(["gyr_x", "gyr_y", "gyr_z"])
+        kw = {"azimuth_deg": az, "site": site, "when": when}
         sig = cols(["std_gnss_x", "std_gnss_y", "std_gnss_z"])
         trk = smooth_track(t, cols(["gnss_x", "gnss_y", "gnss_z"]), floats(T, "gnss_fix"), sig, azimuth_deg=az, lam=0.9)
         a_kin = np.column_stack([trk.columns[f"a{c}"] for c in "xyz"])
-        high = dmc_session(t, acc, mag, acc_kin=a_kin, azimuth_deg=az, site=site, when=when)
         qt = cols([f"true_q{i}" for i in range(4)], tr)
-        rows = low.rows
+        a_true = cols(["true_ax", "true_ay", "true_az"], tr)
+
+        def err(res, qt=qt, a_true=a_true):
+            q = np.column_stack([res.columns[f"q{i}"] for i in range(4)])[res.rows]
+            a = np.column_stack([res.columns[f"a{c}_dmc"] for c in "xyz"])[res.rows]
+            return np.degrees(quat_angle(q, qt[res.rows])), np.linalg.norm(a - a_true[res.rows], axis=1)
+
+        low, _ = err(dmc_session(t, acc, mag, **kw))
+        low_g, _ = err(dmc_session(t, acc, mag, gyr=gyr, **kw))
+        high_res = dmc_session(t, acc, mag, acc_kin=a_kin, **kw)
+        high, a_err = err(high_res)
+        fused, a_err_g = err(dmc_session(t, acc, mag, acc_kin=a_kin, gyr=gyr, **kw))
+        rows = high_res.rows
         static = t[rows] < 5.0
-        e_low = np.degrees(quat_angle(np.column_stack([low.columns[f"q{i}"] for i in range(4)])[rows], qt[rows]))
-        sing = high.columns["dmc_singular"].to_numpy(zero_copy_only=False)[rows].astype(bool)
-        e_high = np.degrees(quat_angle(np.column_stack([high.columns[f"q{i}"] for i in range(4)])[rows], qt[rows]))
-        run = (t[rows] > 6.0) & ~sing
-        a_dmc = np.column_stack([high.columns[f"a{c}_dmc"] for c in "xyz"])[rows]
-        a_err = np.median(np.linalg.norm(a_dmc - cols(["true_ax", "true_ay", "true_az"], tr)[rows], axis=1)[run])
+        sing = high_res.columns["dmc_singular"].to_numpy(zero_copy_only=False)[rows].astype(bool)
+        run = (t[rows] > 6.0) & ~sing  # the DMC's usable rows (free fall and singular geometry left out)
+        highs.append(np.median(fused[run]))
+        dmc_highs.append(np.median(high[run]))
         print(
-            f"  {seed:4d} {np.median(e_low[static]):13.2f} {np.median(e_high[run]):14.2f} "
-            f"{np.percentile(e_high[run], 90):6.2f} {a_err:18.2f}"
+            f"  {seed:4d} {np.median(low[static]):8.2f} {np.median(low_g[static]):8.2f}"
+            f" {np.median(high[run]):12.2f} {np.percentile(high[run], 90):12.2f}"
+            f" {np.median(fused[run]):10.2f} {np.percentile(fused[run], 90):9.2f} {np.median(fused[t[rows] > 6.0]):10.2f}"
+            f" {np.median(a_err[run]):8.2f} {np.median(a_err_g[run]):9.2f}"
         )
-    print("  required: low dynamics < 1 deg; paper: high dynamics 'several degrees' worse than the 1 deg tilt spec")
+    print(
+        "  required: low dynamics < 1 deg; high dynamics (gyro+DMC) median <= 1.5 deg on every seed: "
+        f"{'met' if max(highs) <= 1.5 else 'NOT met'} (worst {max(highs):.2f} deg)"
+    )
+    print(
+        "  paper: the DMC/GPS attitude in high dynamics 'may be several degrees lower than what is expected in low "
+        "dynamic' (1 deg); 'gyro-stabilized magnetometers may be a better choice'"
+    )
+    print(
+        f"  before the gyro (issue 19): the DMC alone, {min(dmc_highs):.2f}-{max(dmc_highs):.2f} deg high-dynamics "
+        "median on these seeds (the DMC-alone column above, this run)"
+    )
+    print("  'all rows': the run including the DMC's singular rows (free fall over the jumps), which the gyro bridges")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ from conftest import run_cli
 
 from sportfusion.core import io as sfio
 from sportfusion.core.magfield import inclination_declination, reference_field
-from sportfusion.core.rotations import quat_angle
+from sportfusion.core.rotations import body_rates, quat_angle
 from sportfusion.core.schema import floats
 from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 
@@ -56,11 +56,21 @@ def test_low_dynamics_within_one_degree(sim, low):
     assert out.schema.field("yaw").metadata[b"unit"] == b"rad"
 
 
-def test_high_dynamics_with_gnss_acceleration(sim):
+@pytest.fixture(scope="module")
+def smoothed(sim):
+    """The session through spline-smooth: the GNSS acceleration ax ay az for eq 9."""
+    res = run_cli(["spline-smooth"], stdin=sim[1])
+    assert res.returncode == 0, res.stderr
+    return res.stdout
+
+
+def test_high_dynamics_with_gnss_acceleration(sim, smoothed):
+    """The DMC alone (--no-gyro), sample by sample, as in the paper."""
     s, data = sim
-    smooth = run_cli(["spline-smooth"], stdin=data)
-    assert smooth.returncode == 0, smooth.stderr
-    out, _ = cli(["dmc-attitude"], smooth.stdout)
+    out, err = cli(["dmc-attitude", "--no-gyro"], smoothed)
+    assert "(DMC alone)" in err
+    assert sfio.get_meta(out)["provenance"][-1]["params"]["method"] == "dmc"
+    assert "bias_gyr_x" not in out.column_names and "std_yaw" not in out.column_names
     rows, e = errors_deg(out, s.truth)
     t = floats(out, "t")[rows]
     sing = out.column("dmc_singular").to_numpy(zero_copy_only=False)[rows].astype(bool)
@@ -75,7 +85,7 @@ def test_high_dynamics_with_gnss_acceleration(sim):
     )
     assert med < 5.0 and a_err < 1.0
     # without the GNSS acceleration the run's attitude is far worse (the reason for eq 9)
-    low_out, _ = cli(["dmc-attitude"], data)
+    low_out, _ = cli(["dmc-attitude", "--no-gyro"], data)
     _, e_low = errors_deg(low_out, s.truth)
     assert np.median(e_low[run]) > 5 * med
     # free fall over the jumps is flagged, and little else
@@ -87,6 +97,60 @@ def test_high_dynamics_with_gnss_acceleration(sim):
     assert sing[~flight].mean() < 0.02
     loss = floats(out, "quest_loss")[rows]
     assert np.median(loss[flight]) > np.median(loss[~flight])
+
+
+@pytest.mark.slow
+def test_gyro_stabilised_attitude(sim, smoothed):
+    """With the simulated gyro: the attitude over the whole run, better than the DMC alone by far."""
+    s, data = sim
+    out, err = cli(["dmc-attitude"], smoothed)
+    assert "(gyro-stabilised DMC)" in err and "converge" not in err and "gyroscope" not in err
+    assert sfio.get_meta(out)["provenance"][-1]["params"]["method"] == "gyro+dmc"
+    rows, e = errors_deg(out, s.truth)
+    t = floats(out, "t")[rows]
+    run = t > 6.0  # free fall included: the gyro carries the attitude through the jumps
+    med, p90 = np.median(e[run]), np.percentile(e[run], 90)
+    dmc, _ = cli(["dmc-attitude", "--no-gyro"], smoothed)
+    _, e_dmc = errors_deg(dmc, s.truth)
+    sing = dmc.column("dmc_singular").to_numpy(zero_copy_only=False)[rows].astype(bool)
+    print(
+        f"high dynamics, gyro-stabilised: median {med:.2f} deg, 90th percentile {p90:.2f} deg "
+        f"(DMC alone: median {np.median(e_dmc[run & ~sing]):.2f} deg without the singular rows)"
+    )
+    assert med < 1.0 and p90 < 1.5 and e.max() < 5.0
+    assert np.median(e_dmc[run & ~sing]) > 2 * med
+    # the DMC's per-sample diagnostics are kept
+    np.testing.assert_array_equal(floats(out, "quest_loss"), floats(dmc, "quest_loss"))
+    assert out.column("dmc_singular").equals(dmc.column("dmc_singular"))
+    # the gyro bias (simulated: 0.01 rad/s 1-sigma turn-on plus a slow walk) and 1-sigma columns
+    bias = np.column_stack([floats(out, f"bias_gyr_{a}") for a in "xyz"])[rows]
+    gyr = np.column_stack([floats(s.session, f"gyr_{a}") for a in "xyz"])[rows]
+    true_bias = (gyr - body_rates(t, quats(s.truth, "true_")[rows]))[t < 5.0].mean(axis=0)  # standing
+    np.testing.assert_allclose(bias[t < 5.0].mean(axis=0), true_bias, atol=2e-3)
+    assert out.schema.field("bias_gyr_x").metadata[b"unit"] == b"rad/s"
+    std = np.column_stack([floats(out, f"std_{a}") for a in ("roll", "pitch", "yaw")])[rows]
+    assert out.schema.field("std_yaw").metadata[b"unit"] == b"rad"
+    assert np.all(std > 0) and np.median(std) < np.radians(1.0)
+    # the DMC alone is exactly what a session without gyro columns gives
+    spl = sfio.table_from_bytes(smoothed)
+    bare = sfio.table_to_bytes(spl.drop_columns(["gyr_x", "gyr_y", "gyr_z"]), sfio.get_meta(spl))
+    nogyro, err2 = cli(["dmc-attitude"], bare)
+    assert "(DMC alone)" in err2
+    for name in ("q0", "q1", "q2", "q3", "ax_dmc", "dmc_singular", "mag_implausible"):
+        assert nogyro.column(name).equals(dmc.column(name)), name
+
+
+def test_gyro_low_dynamics_uses_only_quiet_samples(sim, low):
+    """No GNSS acceleration: f = -g only where the sensor is quiet; the gyro and the field carry the run."""
+    s, _ = sim
+    out, err = low
+    assert sfio.get_meta(out)["provenance"][-1]["params"]["method"] == "gyro+dmc"
+    rows, e = errors_deg(out, s.truth)
+    t = floats(out, "t")[rows]
+    print(
+        f"gyro, no GNSS: median attitude error {np.median(e[t < 5]):.2f} deg standing, {np.median(e[t > 6]):.2f} deg in the run"
+    )
+    assert np.median(e[t < 5.0]) < 1.0 and np.median(e[t > 6.0]) < 3.0
 
 
 def test_normalised_magnetometer_and_given_reference(sim):

@@ -93,6 +93,56 @@ def test_dmc_signals(sim):
     assert np.corrcoef(floats(tr, "true_roll")[rows][~static], lat_acc)[0, 1] > 0.8
 
 
+def test_gyro_integrates_to_the_truth_attitude():
+    """Integrating the error-free gyro (Earth rate removed) reproduces the truth attitude at the IMU rows."""
+    from sportfusion.core.rotations import dcm_from_quat, integrate_body_rates, quat_angle
+    from sportfusion.skirace.attitude import OMEGA_EARTH
+
+    errors = {"gyr_bias": 0.0, "gyr_bias_walk": 0.0, "gyr_scale": 0.0, "gyr_noise": 0.0, "gyr_vibration": 0.0}
+    cfg = SkiRaceConfig(seed=3, duration=20.0, **errors)
+    s = simulate_skirace(cfg)
+    rows = np.isfinite(floats(s.session, "gyr_x"))
+    t = floats(s.session, "t")[rows]
+    gyr = col(s.session, "gyr_x", "gyr_y", "gyr_z")[rows]
+    q_true = col(s.truth, "true_q0", "true_q1", "true_q2", "true_q3")[rows]
+    phi = np.radians(cfg.site[0])
+    w_ie = OMEGA_EARTH * np.array([np.cos(phi), 0.0, -np.sin(phi)])
+    earth = np.einsum("nij,j->ni", dcm_from_quat(q_true), w_ie)  # what the gyro adds (at the sample, ~1e-9 off)
+    q = integrate_body_rates(q_true[0], t, gyr - earth)
+    assert np.degrees(quat_angle(q, q_true).max()) < 1e-5
+    # the landing impacts and the start make the largest rates: well inside the range, never clipped
+    assert np.abs(gyr).max() < cfg.gyr_range
+    # left in, the Earth rate (7.3e-5 rad/s) turns the attitude by its rate times the duration
+    drift = np.degrees(quat_angle(integrate_body_rates(q_true[0], t, gyr), q_true)[-1])
+    assert 0.02 < drift < np.degrees(OMEGA_EARTH * t[-1]) * 1.01
+
+
+def test_gyro_errors_as_configured_and_other_sensors_unchanged(sim):
+    from sportfusion.core.rotations import body_rates
+
+    s = sim.session
+    rows = np.isfinite(floats(s, "gyr_x"))
+    t = floats(s, "t")[rows]
+    gyr = col(s, "gyr_x", "gyr_y", "gyr_z")[rows]
+    w_true = body_rates(t, col(sim.truth, "true_q0", "true_q1", "true_q2", "true_q3")[rows])
+    err = gyr - w_true
+    static = t < 5.0
+    assert abs(np.median(np.diff(t)) - 0.02) < 1e-9  # the IMU rate, same rows as the accelerometer
+    assert np.array_equal(rows, np.isfinite(floats(s, "acc_x")))
+    # standing: a constant-ish bias (1-sigma 0.01 rad/s per axis) plus 0.002 rad/s white noise
+    bias0 = err[static].mean(axis=0)
+    assert 1e-4 < np.abs(bias0).max() < 0.04
+    np.testing.assert_allclose(err[static].std(axis=0), 0.002, rtol=0.25)
+    # skiing: vibration 0.01 rad/s per sample on top; the bias walks slowly (2e-4 rad/s/sqrt(s))
+    run = t > 10.0
+    np.testing.assert_allclose(np.std(np.diff(err[run], axis=0), axis=0) / np.sqrt(2), 0.0102, rtol=0.15)
+    assert np.abs(err[run].mean(axis=0) - bias0).max() < 0.01
+    # the gyro has its own random stream: the other sensors and the truth are those of a run without it
+    no = simulate_skirace(SkiRaceConfig(seed=1, gyro=False))
+    assert "gyr_x" not in no.session.column_names
+    assert s.drop_columns(["gyr_x", "gyr_y", "gyr_z"]).equals(no.session) and sim.truth.equals(no.truth)
+
+
 def test_deterministic():
     a = simulate_skirace(SkiRaceConfig(seed=4, duration=15.0, float_episodes=1, lock_losses=1, jumps=1))
     b = simulate_skirace(SkiRaceConfig(seed=4, duration=15.0, float_episodes=1, lock_losses=1, jumps=1))

@@ -1,4 +1,5 @@
-"""``dmc-attitude``: attitude per sample from a digital magnetic compass and GNSS (skiracing-splines eqs 8-9)."""
+"""``dmc-attitude``: attitude per sample from a digital magnetic compass and GNSS (skiracing-splines eqs 8-9),
+gyro-stabilised when the session has a gyroscope."""
 
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ from sportfusion.tools._options import parse_floats
     example="""
   simulate skirace --seed 1 | spline-smooth | dmc-attitude > attitude.parquet
   dmc-attitude session.parquet --site 46.49,9.84,2200 --lowpass 3 -o attitude.parquet
-  dmc-attitude xsens.parquet --dip-from-data --mag-weight 0.5 > attitude.parquet""",
+  dmc-attitude xsens.parquet --dip-from-data --mag-weight 0.5 > attitude.parquet
+  dmc-attitude spline.parquet --no-gyro -o dmc-only.parquet""",
 )
 @click.option(
     "--site",
@@ -79,6 +81,40 @@ from sportfusion.tools._options import parse_floats
     type=click.FloatRange(0),
     help="|specific force| below this flags dmc_singular [m/s^2].",
 )
+@click.option(
+    "--no-gyro",
+    is_flag=True,
+    help="Ignore gyr_x gyr_y gyr_z: the attitude of the DMC alone, sample by sample.",
+)
+@click.option(
+    "--acc-sigma",
+    default=0.5,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="With a gyro: 1-sigma of the specific force against its reference [m/s^2], grown by the "
+    "difference of their lengths.",
+)
+@click.option(
+    "--mag-sigma",
+    default=0.02,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="With a gyro: 1-sigma of the magnetic field direction [rad].",
+)
+@click.option(
+    "--gyro-noise",
+    default=3e-4,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="With a gyro: its white-noise density [rad/s/sqrt(Hz)].",
+)
+@click.option(
+    "--gyro-bias-walk",
+    default=2e-4,
+    show_default=True,
+    type=click.FloatRange(0, min_open=True),
+    help="With a gyro: random walk of its bias [rad/s/sqrt(s)].",
+)
 def main(
     tool: Tool,
     site: str | None,
@@ -91,6 +127,11 @@ def main(
     lowpass_hz: float,
     coriolis: bool,
     free_fall: float,
+    no_gyro: bool,
+    acc_sigma: float,
+    mag_sigma: float,
+    gyro_noise: float,
+    gyro_bias_walk: float,
 ) -> None:
     """Attitude on every accelerometer row from the magnetometer and the specific
     force (a digital magnetic compass) by Wahba's problem solved with QUEST.
@@ -106,7 +147,14 @@ def main(
     than 20 % off the model's intensity, or, standing still, the
     field-to-gravity angle more than 5 deg off the model's: a disturbed or miscalibrated magnetometer;
     a warning line gives the numbers, as for a --dip-from-data inclination
-    more than 5 deg from the model's)."""
+    more than 5 deg from the model's).
+
+    With a gyroscope (gyr_x gyr_y gyr_z [rad/s]; the paper's gyro-stabilised
+    magnetometer) the attitude is smoothed over the whole record instead: the
+    gyro carries it from sample to sample, the specific force and the field of
+    every sample correct it, and the gyro bias is estimated along; this adds
+    bias_gyr_x bias_gyr_y bias_gyr_z [rad/s] and std_roll std_pitch std_yaw
+    [rad] (1-sigma). --no-gyro gives the DMC alone."""
     table, meta = tool.read()
     result = dmc_table(
         table,
@@ -121,12 +169,18 @@ def main(
         lowpass_hz=lowpass_hz,
         coriolis=coriolis,
         free_fall=free_fall,
+        use_gyro=not no_gyro,
+        sigma_acc=acc_sigma,
+        sigma_mag=mag_sigma,
+        gyro_noise=gyro_noise,
+        bias_walk=gyro_bias_walk,
     )
     for w in result.warnings:
         tool.warn(w)
     i = result.info
+    how = "gyro-stabilised DMC" if i["method"] == "gyro+dmc" else "DMC alone"
     tool.info(
-        f"{i['rows']} attitude rows at {i['rate_hz']:.1f} Hz, {i['singular']} singular; magnetic reference "
+        f"{i['rows']} attitude rows at {i['rate_hz']:.1f} Hz ({how}), {i['singular']} singular; magnetic reference "
         f"{i['mag_ref_source']} (inclination {i['inclination_deg']:.2f} deg, declination {i['declination_deg']:.2f} deg)"
     )
-    tool.write(with_columns(table, result.columns), meta)
+    tool.write(with_columns(table, result.columns), meta, dict(tool.params, method=i["method"]))

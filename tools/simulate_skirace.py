@@ -1,4 +1,4 @@
-"""``simulate skirace``: an alpine ski run with truth, RTK GNSS with float episodes, and a MEMS DMC."""
+"""``simulate skirace``: an alpine ski run with truth, RTK GNSS with float episodes, a MEMS DMC and gyroscope."""
 
 from __future__ import annotations
 
@@ -43,7 +43,12 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
     default=50.0,
     show_default=True,
     type=click.FloatRange(30, 100),
-    help="Accelerometer + magnetometer rate [Hz].",
+    help="Accelerometer + magnetometer (+ gyroscope) rate [Hz].",
+)
+@click.option(
+    "--no-gyro",
+    is_flag=True,
+    help="No gyroscope (gyr_x gyr_y gyr_z [rad/s]); the other sensors are the same samples either way.",
 )
 @course_site_options("46.4975,9.8365,2200", 160.0, "2026-02-10T10:00:00Z")
 @click.option(
@@ -99,6 +104,7 @@ def main(
     jumps: int,
     float_episodes: int,
     lock_losses: int,
+    no_gyro: bool,
 ) -> None:
     """Simulate an alpine ski run (downhill / giant-slalom like: turns, terrain
     rollers, jumps with free fall) in a course frame (x along the fall line,
@@ -106,7 +112,9 @@ def main(
     jump in and out at the transitions, optimistic sigmas) and short losses of
     lock, as lat/lon/h plus the local gnss_x/y/z with std_gnss_*; a MEMS DMC
     (accelerometer + magnetometer on the WMM field) with bias, scale, noise and
-    ski vibration. The truth (true_x.., true_vx.., true_ax.., true_q0..3,
+    ski vibration, and a MEMS gyroscope at the same instants (mean rate over each
+    sample interval plus the Earth rate [rad/s]; turn-on bias, bias random walk,
+    scale, noise, vibration; --no-gyro leaves it out). The truth (true_x.., true_vx.., true_ax.., true_q0..3,
     true_roll/pitch/yaw, true_speed at every session row) goes to --truth."""
     cfg = SkiRaceConfig(
         seed=seed,
@@ -122,6 +130,7 @@ def main(
         jumps=jumps,
         float_episodes=float_episodes,
         lock_losses=lock_losses,
+        gyro=not no_gyro,
     )
     sim = simulate_skirace(cfg)
     if truth_path:

@@ -44,6 +44,10 @@ __all__ = [
     "to_ned",
     "quat_angle",
     "quat_canonical",
+    "quat_from_rotvec",
+    "rotvec_from_quat",
+    "body_rates",
+    "integrate_body_rates",
     "local_to_ned",
     "ned_to_local",
 ]
@@ -232,6 +236,75 @@ def quat_angle(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """
     d = quat_multiply(quat_conjugate(quat_normalize(q1)), quat_normalize(q2))
     return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+
+
+def quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
+    """Unit quaternion(s) ``Exp(phi) = [cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of rotation vector(s) ``phi`` [rad].
+
+    Shapes ``(..., 3) -> (..., 4)``; exact for every angle, with the series of ``sin(x/2)/x`` for tiny
+    angles.  As a body-frame increment, ``q_BO ⊗ Exp(phi)`` is the attitude after the body turned by
+    ``phi`` (its own axes; ``M_BO`` then becomes ``M(Exp(phi)) M_BO``, the frame rotation).
+    """
+    phi = np.asarray(phi, dtype=float)
+    th = np.linalg.norm(phi, axis=-1)
+    small = th < 1e-4
+    k = np.where(small, 0.5 - th * th / 48.0, np.sin(0.5 * th) / np.where(small, 1.0, th))
+    return np.concatenate((np.cos(0.5 * th)[..., None], k[..., None] * phi), axis=-1)
+
+
+def rotvec_from_quat(q: np.ndarray) -> np.ndarray:
+    """Rotation vector(s) ``Log(q)`` [rad] of quaternion(s) ``(..., 4) -> (..., 3)``, angle in [0, pi].
+
+    The inverse of :func:`quat_from_rotvec` (``q`` and ``-q`` give the same vector); the angle is
+    ``2 atan2(|vec q|, |q0|)``, accurate near 0 and pi.
+    """
+    q = quat_canonical(quat_normalize(q))
+    v = q[..., 1:]
+    sv = np.linalg.norm(v, axis=-1)
+    th = 2.0 * np.arctan2(sv, q[..., 0])
+    tiny = sv < 1e-12
+    k = np.where(tiny, 2.0 / np.maximum(q[..., 0], 1e-300), th / np.where(tiny, 1.0, sv))
+    return k[..., None] * v
+
+
+def body_rates(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Mean body angular rate [rad/s] over each sample interval of an attitude history ``q_BO``.
+
+    Row ``k`` is ``Log(q_{k-1}* ⊗ q_k) / (t_k - t_{k-1})``, the body-frame rate (body relative to NED)
+    averaged over the interval that *ends* at ``t_k`` -- what an integrating (delta-angle) gyroscope
+    outputs; row 0 repeats row 1.  :func:`integrate_body_rates` inverts it exactly.
+
+    Parameters
+    ----------
+    t : (N,) sample times [s], strictly increasing, N >= 2.
+    q : (N, 4) ``q_BO`` (scalar first).
+
+    Returns
+    -------
+    (N, 3) body rates [rad/s].
+    """
+    t = np.asarray(t, dtype=float)
+    q = quat_normalize(q)
+    d = quat_multiply(quat_conjugate(q[:-1]), q[1:])
+    w = rotvec_from_quat(d) / np.diff(t)[:, None]
+    return np.concatenate((w[:1], w))
+
+
+def integrate_body_rates(q0: np.ndarray, t: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Strap-down attitude ``q_k = q_{k-1} ⊗ Exp(w_k (t_k - t_{k-1}))`` from ``q_BO`` at ``t[0]``.
+
+    ``w[k]`` is the mean body rate [rad/s] over the interval ending at ``t[k]`` (the convention of
+    :func:`body_rates`; ``w[0]`` is unused).  Returns ``(N, 4)`` ``q_BO``, scalar part >= 0.
+    """
+    t = np.asarray(t, dtype=float)
+    dq = quat_from_rotvec(np.asarray(w, dtype=float)[1:] * np.diff(t)[:, None])
+    out = np.empty((t.size, 4))
+    a = quat_normalize(q0)
+    out[0] = a
+    for k in range(1, t.size):
+        a = quat_multiply(a, dq[k - 1])
+        out[k] = a
+    return quat_canonical(quat_normalize(out))
 
 
 def _rot_z(azimuth_deg: float) -> np.ndarray:

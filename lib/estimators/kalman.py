@@ -17,6 +17,14 @@ At every step the measurements of that step update ``x_{k|k-1} -> x_{k|k}``
 error of ``x_k`` onto ``x_{k+1}`` so that
 ``P_{k+1|k} = Phi_k P_{k|k} Phi_k^T + Qd_k`` (eq 13 with the errata transposes).
 The last propagate call is ``k = N-2``.  The backward pass is eqs 17-21.
+
+States on a manifold (error-state / multiplicative form)
+--------------------------------------------------------
+A state that is not a vector (e.g. a unit quaternion) passes ``boxplus(x, dx)`` and
+``boxminus(y, x)`` (``y = x ⊞ (y ⊟ x)``): ``P`` and the Jacobians then refer to the
+error ``dx`` (its size is ``P0``'s, which may differ from ``x``'s), the update is
+``x ⊞ K r`` and the smoother's eq 20 is ``x_{k|N} = x_{k|k} ⊞ C (x_{k+1|N} ⊟ x_{k+1|k})``.
+Without them both are plain ``+`` and ``-``.
 """
 
 from __future__ import annotations
@@ -120,11 +128,11 @@ def _check_psd(P: np.ndarray, k: int, t, phase: str) -> None:
         ) from None
 
 
-def _update(x: np.ndarray, P: np.ndarray, meas: list[Measurement], k: int, t):
+def _update(x: np.ndarray, P: np.ndarray, meas: list[Measurement], k: int, t, boxplus: Callable | None = None):
     """Stacked Joseph-form update (eqs 14-16); returns x, P and the innovations."""
     import scipy.linalg
 
-    n = x.size
+    n = P.shape[0]
     rs, Hs, Rs = [], [], []
     for m in meas:
         r = np.atleast_1d(np.asarray(m.residual, dtype=float))
@@ -151,7 +159,7 @@ def _update(x: np.ndarray, P: np.ndarray, meas: list[Measurement], k: int, t):
             "a hard constraint redundant with the state's knowledge, or a zero-variance measurement"
         ) from None
     K = scipy.linalg.cho_solve(cS, PHt.T, check_finite=False).T
-    x = x + K @ r
+    x = x + K @ r if boxplus is None else np.asarray(boxplus(x, K @ r), dtype=float)
     IKH = np.eye(n) - K @ H
     P = symmetrize(IKH @ P @ IKH.T + K @ R @ K.T)
     return x, P
@@ -166,6 +174,8 @@ def ekf_rts(
     *,
     progress: Callable[[int], object] | None = None,
     t: Sequence[float] | np.ndarray | None = None,
+    boxplus: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+    boxminus: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> SmootherResult:
     """Extended Kalman filter forward + Rauch-Tung-Striebel backward pass.
 
@@ -182,7 +192,8 @@ def ekf_rts(
     x0 : array (n,)
         Prior mean at step 0.
     P0 : array (n, n)
-        Prior covariance at step 0 (symmetric PSD).
+        Prior covariance at step 0 (symmetric PSD); ``n`` is the size of the error state,
+        ``x0.size`` unless ``boxplus``/``boxminus`` are given.
     n_steps : int
         Number of steps N (>= 1).
     propagate, measure : callables
@@ -192,6 +203,10 @@ def ekf_rts(
         (forward k = 0..N-1, then backward k = N-2..0).
     t : array (N,) or None
         Step times [s], only used to name the time in error messages.
+    boxplus, boxminus : callables or None
+        For a state on a manifold (module docstring): ``boxplus(x, dx)`` applies an error
+        ``dx`` (n,) to ``x``; ``boxminus(y, x)`` is the error ``dx`` with ``y = x ⊞ dx``.
+        Both None (default): ``x + dx`` and ``y - x``.
 
     Returns
     -------
@@ -205,16 +220,19 @@ def ekf_rts(
     """
     import scipy.linalg
 
+    if (boxplus is None) != (boxminus is None):
+        raise ValueError("boxplus and boxminus go together")
     x0 = np.asarray(x0, dtype=float).copy()
-    n = x0.size
+    nx = x0.size
+    n = np.asarray(P0).shape[0] if boxplus is not None else nx
     N = int(n_steps)
     if N < 1:
         raise ValueError("n_steps must be >= 1")
     P = symmetrize(np.asarray(P0, dtype=float).reshape(n, n))
     _check_psd(P, 0, t, "prior P0")
-    x_filt = np.empty((N, n))
+    x_filt = np.empty((N, nx))
     P_filt = np.empty((N, n, n))
-    x_pred = np.empty((N, n))
+    x_pred = np.empty((N, nx))
     P_pred = np.empty((N, n, n))
     Phis = np.empty((max(N - 1, 0), n, n))
     residuals: dict[str, np.ndarray] = {}
@@ -232,7 +250,7 @@ def ekf_rts(
                 if arr.shape[1] != r.size:
                     raise ValueError(f"measurement {m.name!r} changed size at step {k}")
                 arr[k] = r
-            x, P = _update(x, P, meas, k, t)
+            x, P = _update(x, P, meas, k, t, boxplus)
             _check_psd(P, k, t, "after update")
         x_filt[k] = x
         P_filt[k] = P
@@ -260,7 +278,10 @@ def ekf_rts(
             C = scipy.linalg.cho_solve(c, A, check_finite=False).T  # eq 19
         except np.linalg.LinAlgError:
             C = (np.linalg.pinv(Pp, hermitian=True) @ A).T
-        x_s[k] = x_filt[k] + C @ (x_s[k + 1] - x_pred[k + 1])  # eq 20
+        if boxplus is None:
+            x_s[k] = x_filt[k] + C @ (x_s[k + 1] - x_pred[k + 1])  # eq 20
+        else:
+            x_s[k] = boxplus(x_filt[k], C @ np.asarray(boxminus(x_s[k + 1], x_pred[k + 1]), dtype=float))
         Pk = P_filt[k] + C @ (P_s[k + 1] - Pp) @ C.T  # eq 21
         P_s[k] = symmetrize(Pk)
         if not np.all(np.isfinite(P_s[k])):

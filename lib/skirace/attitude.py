@@ -4,6 +4,9 @@ The digital-magnetic-compass references: ``m^l`` from a magnetic model and
 ``f^l = r'' + (2 Omega_ie + Omega_el) r' - g^l`` [m/s^2] (:func:`reference_specific_force`, with
 :func:`coriolis_ned`); :func:`dmc_attitude` solves Wahba's problem per sample with
 :func:`sportfusion.estimators.quest.quest` from the body magnetometer and specific force;
+:func:`gyro_dmc_attitude` is the gyro-stabilised alternative the paper recommends for high
+dynamics: the same two vector observations over the whole record, tied together by a gyroscope
+(:func:`sportfusion.estimators.attitude_ekf.gyro_vector_smoother`);
 :func:`dip_from_quiet` estimates the inclination [rad] from quiet samples; :func:`lowpass` is the
 zero-phase Butterworth filter [Hz] applied to the sensors first.
 """
@@ -87,6 +90,10 @@ class DMCResult:
         free fall, or the two directions are nearly parallel.
     acc_kin_ned : (N, 3) kinematic acceleration re-estimated from the measured
         specific force through the attitude (eq 9 solved for ``r''``) [m/s^2].
+    bias_gyr : (N, 3) estimated gyro bias [rad/s] (:func:`gyro_dmc_attitude` only, else None).
+    std_rpy : (N, 3) 1-sigma of roll, pitch, yaw [rad] (:func:`gyro_dmc_attitude` only, else None).
+    iterations : Gauss-Newton iterations of :func:`gyro_dmc_attitude` (0 for the DMC alone).
+    converged : whether those iterations converged (True for the DMC alone).
     """
 
     q: np.ndarray
@@ -96,6 +103,23 @@ class DMCResult:
     loss: np.ndarray
     singular: np.ndarray
     acc_kin_ned: np.ndarray
+    bias_gyr: np.ndarray | None = None
+    std_rpy: np.ndarray | None = None
+    iterations: int = 0
+    converged: bool = True
+
+
+def kinematic_acceleration(
+    M: np.ndarray, f_body: np.ndarray, g: float, coriolis: np.ndarray | None = None
+) -> np.ndarray:
+    """Eq 9 solved for ``r''``: ``M_BO^T f^b + g^l - (2 Omega_ie + Omega_el) v`` in NED [m/s^2].
+
+    ``M`` (N, 3, 3) the attitude's ``M_BO``, ``f_body`` (N, 3) [m/s^2], ``g`` [m/s^2], ``coriolis``
+    (N, 3) [m/s^2] or None.
+    """
+    acc = np.einsum("nji,nj->ni", M, f_body)  # M_BO^T f^b: specific force in NED
+    acc[:, 2] += g
+    return acc - coriolis if coriolis is not None else acc
 
 
 def dmc_attitude(
@@ -154,11 +178,162 @@ def dmc_attitude(
             | (sin2_angle(f_l, m_l, ffl, mml) < sin2_min)
             | (sin2_angle(f_b, m_b, ffb, mmb) < sin2_min)
         )
-    acc_kin = np.einsum("nji,nj->ni", M, f_b)  # M_BO^T f^b: specific force in NED
-    acc_kin[:, 2] += g
-    if coriolis is not None:
-        acc_kin = acc_kin - coriolis
-    return DMCResult(q, roll, pitch, yaw, loss, singular, acc_kin)
+    return DMCResult(q, roll, pitch, yaw, loss, singular, kinematic_acceleration(M, f_b, g, coriolis))
+
+
+def bridge_with_gyro(q: np.ndarray, bad: np.ndarray, t: np.ndarray, gyr: np.ndarray) -> np.ndarray:
+    """Attitudes ``q_BO`` (N, 4) with the ``bad`` rows replaced by the gyro integrated from the last good row.
+
+    Leading bad rows take the first good row's attitude; ``gyr`` (N, 3) [rad/s] follows
+    :func:`sportfusion.core.rotations.integrate_body_rates` (row k: mean rate over the interval ending
+    at ``t[k]`` [s]).  All rows bad: ``q`` unchanged.
+    """
+    from sportfusion.core.rotations import integrate_body_rates
+
+    q = np.array(q, dtype=float, copy=True)
+    bad = np.asarray(bad, bool)
+    good = np.flatnonzero(~bad)
+    if good.size == 0 or good.size == bad.size:
+        return q
+    q[: good[0]] = q[good[0]]
+    edges = np.diff(np.r_[0, bad[good[0] :].astype(np.int8), 0])
+    starts = np.flatnonzero(edges == 1) + good[0]
+    ends = np.flatnonzero(edges == -1) + good[0]
+    for s, e in zip(starts, ends, strict=True):
+        q[s - 1 : e] = integrate_body_rates(q[s - 1], t[s - 1 : e], gyr[s - 1 : e])
+    return q
+
+
+def euler_std(q: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """1-sigma of roll, pitch, yaw [rad] (N, 3) from the covariance (N, 3, 3) [rad^2] of the body-frame
+    attitude error ``dtheta`` (``q_true = q ⊗ Exp(dtheta)``), through the Euler angles' Jacobian
+    (central differences of 1e-6 rad)."""
+    from sportfusion.core.rotations import euler_from_quat, quat_from_rotvec, quat_multiply
+
+    eps = 1e-6
+    J = np.empty((q.shape[0], 3, 3))
+    for i in range(3):
+        d = np.zeros(3)
+        d[i] = eps
+        plus = np.array(euler_from_quat(quat_multiply(q, quat_from_rotvec(d))))
+        minus = np.array(euler_from_quat(quat_multiply(q, quat_from_rotvec(-d))))
+        J[:, :, i] = (np.angle(np.exp(1j * (plus - minus)))).T / (2 * eps)  # yaw/roll wrap at +-pi
+    return np.sqrt(np.maximum(np.einsum("nij,njk,nik->ni", J, cov, J), 0.0))
+
+
+def gyro_dmc_attitude(
+    t: np.ndarray,
+    acc_body: np.ndarray,
+    mag_body: np.ndarray,
+    gyr_body: np.ndarray,
+    f_ref_ned: np.ndarray,
+    m_ref_ned: np.ndarray,
+    g: float,
+    *,
+    dmc: DMCResult,
+    sigma_acc: float = 0.5,
+    acc_mismatch: float = 1.0,
+    sigma_mag: float = 0.02,
+    gyro_noise: float = 3e-4,
+    bias_walk: float = 2e-4,
+    sigma_bias0: float = 0.05,
+    lat_deg: float | None = None,
+    coriolis: np.ndarray | None = None,
+    reference_ok: np.ndarray | None = None,
+) -> DMCResult:
+    """Gyro-stabilised DMC attitude: the specific force and the field of every sample, tied by the gyroscope.
+
+    The skiracing-splines paper finds the per-sample DMC "several degrees" worse in high dynamics
+    and names gyro-stabilised magnetometers the better choice.  Here the gyro carries the attitude
+    from sample to sample and the two DMC vectors correct it, all samples at once
+    (:func:`sportfusion.estimators.attitude_ekf.gyro_vector_smoother`, the gyro bias estimated along):
+
+    * specific force: ``f^b = M_BO f^l + v`` [m/s^2] with isotropic 1-sigma
+      ``sqrt(sigma_acc^2 + (acc_mismatch (|f^b| - |f^l|))^2)``: a sample whose measured and reference
+      lengths disagree (vibration, an impact, a GNSS acceleration the spline smoothed away) counts
+      less, and near free fall both vectors are short, so it carries no tilt, as it should;
+    * magnetic field: the unit vectors ``m^b/|m^b| = M_BO m^l/|m^l|`` with 1-sigma ``sigma_mag`` [rad]
+      (only the direction is used, as by QUEST: uT and normalised magnetometers give one answer).
+
+    The starting trajectory is the per-sample DMC (``dmc``, :func:`dmc_attitude`) with its singular
+    rows, and those without a usable reference, bridged by the gyro (:func:`bridge_with_gyro`).
+
+    Parameters
+    ----------
+    t : (N,) [s], strictly increasing.
+    acc_body, mag_body : (N, 3) specific force [m/s^2] and field (any unit) in the body frame.
+    gyr_body : (N, 3) body rate [rad/s]; row k the mean rate over the interval ending at ``t[k]``.
+    f_ref_ned : (N, 3) reference specific force [m/s^2]; m_ref_ned : (3,) reference field (any unit).
+    g : gravity [m/s^2] (to re-estimate the kinematic acceleration).
+    dmc : the per-sample DMC solution on the same rows (start, ``quest_loss`` and singular flags).
+    sigma_acc : [m/s^2]; acc_mismatch : [1]; sigma_mag : [rad].
+    gyro_noise : [rad/s/sqrt(Hz)] white noise density; bias_walk : [rad/s/sqrt(s)]; sigma_bias0 : prior
+        1-sigma of the bias [rad/s].
+    lat_deg : latitude [deg] for the Earth rate the gyro also measures (None: left in).
+    coriolis : (N, 3) optional ``(2 Omega_ie + Omega_el) v`` [m/s^2] for the re-estimated acceleration.
+    reference_ok : (N,) bool, rows whose reference specific force is known (a GNSS acceleration, or a
+        quiet sample under the low-dynamics assumption); the others use no specific force (the gyro
+        and the field carry the attitude there).  None: all.
+
+    Returns
+    -------
+    DMCResult
+        With ``bias_gyr``, ``std_rpy`` and ``iterations``; ``loss`` and ``singular`` are the per-sample DMC's.
+
+    Raises
+    ------
+    ValueError
+        When the smoother's normal equations are not positive definite (no usable observation at all).
+    """
+    from sportfusion.core.rotations import dcm_from_quat
+    from sportfusion.estimators.attitude_ekf import gyro_vector_smoother
+
+    f_b = np.asarray(acc_body, float)
+    f_l = np.asarray(f_ref_ned, float)
+    m_b = _unit(np.asarray(mag_body, float))
+    m_l = np.broadcast_to(_unit(np.asarray(m_ref_ned, float)), f_l.shape)
+    mismatch = np.linalg.norm(f_b, axis=1) - np.linalg.norm(f_l, axis=1)
+    s_acc = np.sqrt(sigma_acc**2 + (acc_mismatch * mismatch) ** 2)
+    if reference_ok is not None:
+        s_acc = np.where(np.asarray(reference_ok, bool), s_acc, np.inf)  # non-finite: not observed
+    sigma = np.column_stack((s_acc, np.full(s_acc.shape, float(sigma_mag))))
+    w_ie = None
+    if lat_deg is not None:
+        phi = np.deg2rad(lat_deg)
+        w_ie = OMEGA_EARTH * np.array([np.cos(phi), 0.0, -np.sin(phi)])
+    bad = dmc.singular | ~np.isfinite(dmc.q[:, 0]) | ~np.isfinite(s_acc)
+    q_init = bridge_with_gyro(dmc.q, bad, t, gyr_body)
+    res = gyro_vector_smoother(
+        t,
+        gyr_body,
+        np.stack((f_b, m_b), axis=1),
+        np.stack((f_l, m_l), axis=1),
+        sigma,
+        q_init[0],
+        sigma_q0=0.2,
+        sigma_bias0=sigma_bias0,
+        gyro_noise=gyro_noise,
+        bias_walk=bias_walk,
+        w_ie_ned=w_ie,
+        names=("specific_force", "magnetic_field"),
+        q_init=q_init,
+    )
+    M = dcm_from_quat(res.q)
+    roll, pitch, yaw = euler_from_dcm(M)
+    std = euler_std(res.q, res.cov_theta)
+    return DMCResult(
+        res.q,
+        roll,
+        pitch,
+        yaw,
+        dmc.loss,
+        dmc.singular,
+        kinematic_acceleration(M, f_b, g, coriolis),
+        bias_gyr=res.bias,
+        std_rpy=std,
+        iterations=res.iterations,
+        converged=res.converged,
+    )
 
 
 def dip_from_quiet(

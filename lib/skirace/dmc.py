@@ -8,6 +8,17 @@ accelerometer rows.  GNSS kinematic acceleration ``ax ay az`` (from
 interpolated from the neighbouring rows where it is null; rows with none
 (before/after GNSS coverage) fall back to low dynamics (``f^l = -g``).
 
+With a gyroscope (``gyr_x gyr_y gyr_z`` [rad/s], interpolated onto the
+accelerometer rows like the magnetometer) the attitude is gyro-stabilised
+(:func:`sportfusion.skirace.attitude.gyro_dmc_attitude`: the same two vector
+observations on every row, tied together by the gyro, its bias estimated
+along) unless ``use_gyro`` is False; ``info["method"]`` says which ran
+(``gyro+dmc`` or ``dmc``).  The gyro-stabilised attitude adds
+``bias_gyr_x bias_gyr_y bias_gyr_z`` [rad/s] and ``std_roll std_pitch
+std_yaw`` [rad]; ``quest_loss`` and ``dmc_singular`` stay the per-sample
+DMC's.  A gyro that does not cover every attitude row falls back to the DMC
+alone, with a warning.
+
 Frames: local vectors are rotated to NED by :func:`sportfusion.core.rotations.local_to_ned`
 with the frame's azimuth before the reference vectors are formed; the
 attitude ``q_BO`` and ``yaw`` refer to NED (yaw is the azimuth from north);
@@ -30,6 +41,7 @@ from sportfusion.skirace.attitude import (
     coriolis_ned,
     dip_from_quiet,
     dmc_attitude,
+    gyro_dmc_attitude,
     lowpass,
     magnetometer_plausibility,
     quiet_mask,
@@ -83,6 +95,12 @@ def dmc_session(
     dip_tol: float = 5.0,
     angle_tol: float = 5.0,
     norm_tol: float = 0.2,
+    gyr: np.ndarray | None = None,
+    use_gyro: bool = True,
+    sigma_acc: float = 0.5,
+    sigma_mag: float = 0.02,
+    gyro_noise: float = 3e-4,
+    bias_walk: float = 2e-4,
 ) -> DMCSessionResult:
     """Attitude per IMU row of a session from a DMC and the GNSS acceleration.
 
@@ -112,6 +130,13 @@ def dmc_session(
         compared with the model's on quiet samples (f = -g known), the field norm with the model's
         intensity on every sample, both over a 1 s running median; flagged samples are in
         ``mag_implausible`` and counted in a warning.
+    gyr : (N, 3) body rate [rad/s] (``gyr_x gyr_y gyr_z``), NaN where not sampled, or None.
+    use_gyro : fuse ``gyr`` when given (False: the DMC alone, as without a gyro).
+    sigma_acc : 1-sigma of the specific-force observation [m/s^2] (gyro path; inflated by the
+        difference of the measured and reference lengths).
+    sigma_mag : 1-sigma of the field direction [rad] (gyro path).
+    gyro_noise : gyro white-noise density [rad/s/sqrt(Hz)]; bias_walk : bias random walk
+        [rad/s/sqrt(s)] (gyro path).
     """
     t = np.asarray(t, float)
     n = t.size
@@ -190,15 +215,16 @@ def dmc_session(
     inc, dec = inclination_declination(m_ref)
     info.update({"mag_ref_source": src, "inclination_deg": inc, "declination_deg": dec})
     # reference specific force
+    low_dyn = np.ones(rows.size, bool)  # rows under the low-dynamics assumption
     if acc_kin is None:
         warnings.append("no GNSS acceleration (ax ay az; run spline-smooth first): assuming low dynamics, f = -g")
         a_loc = np.zeros((rows.size, 3))
     else:
         a_loc = _fill(t, np.asarray(acc_kin, float), rows)
-        missing = ~np.all(np.isfinite(a_loc), axis=1)
-        if missing.any():
-            warnings.append(f"{int(missing.sum())} row(s) outside the GNSS acceleration: assuming low dynamics there")
-            a_loc[missing] = 0.0
+        low_dyn = ~np.all(np.isfinite(a_loc), axis=1)
+        if low_dyn.any():
+            warnings.append(f"{int(low_dyn.sum())} row(s) outside the GNSS acceleration: assuming low dynamics there")
+            a_loc[low_dyn] = 0.0
     a_ned = local_to_ned(a_loc, azimuth_deg)
     cor = None
     if coriolis:
@@ -214,6 +240,50 @@ def dmc_session(
     res = dmc_attitude(
         f_b, m_b, f_ref, m_ref, g, weight_acc=weight_acc, weight_mag=weight_mag, free_fall=free_fall, coriolis=cor
     )
+    method = "dmc"
+    if gyr is not None and use_gyro:
+        w_b = np.asarray(gyr, float)[rows].copy()
+        miss = ~np.all(np.isfinite(w_b), axis=1)
+        if miss.any():
+            w_b[miss] = _fill(t, np.asarray(gyr, float), rows)[miss]
+        uncovered = int((~np.all(np.isfinite(w_b), axis=1)).sum())
+        if uncovered:
+            warnings.append(
+                f"the gyroscope (gyr_x gyr_y gyr_z) does not cover {uncovered} of {rows.size} attitude row(s): "
+                "attitude from the DMC alone"
+            )
+        elif rows.size < 2:
+            warnings.append("one attitude row: attitude from the DMC alone")
+        else:
+            try:
+                res = gyro_dmc_attitude(
+                    t[rows],
+                    f_b,
+                    m_b,
+                    w_b,
+                    f_ref,
+                    m_ref,
+                    g,
+                    dmc=res,
+                    sigma_acc=sigma_acc,
+                    sigma_mag=sigma_mag,
+                    gyro_noise=gyro_noise,
+                    bias_walk=bias_walk,
+                    lat_deg=site[0] if site is not None else None,
+                    coriolis=cor,
+                    # f = -g is a reference only where the sensor is quiet; elsewhere the gyro carries the tilt
+                    reference_ok=~low_dyn | quiet_mask(f_b, g, fs),
+                )
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                raise InputError(f"the gyro-stabilised attitude failed ({exc}); --no-gyro gives the DMC alone") from exc
+            method = "gyro+dmc"
+            info["iterations"] = res.iterations
+            if not res.converged:
+                warnings.append(
+                    f"the gyro-stabilised attitude did not converge in {res.iterations} iterations: it may be off "
+                    "where the DMC start was poor (compare with --no-gyro)"
+                )
+    info["method"] = method
     a_dmc = ned_to_local(res.acc_kin_ned, azimuth_deg)
     # plausibility against the model where there is one (else the reference used), see magnetometer_plausibility
     check_ref = m_ref if mag_ref is not None or model is None else model
@@ -261,6 +331,11 @@ def dmc_session(
     cols["dmc_singular"] = pa.array(sing, mask=~mask)  # null on rows without an attitude
     for i, a in enumerate("xyz"):
         put(f"a{a}_dmc", a_dmc[:, i])
+    if res.bias_gyr is not None and res.std_rpy is not None:
+        for i, a in enumerate("xyz"):
+            put(f"bias_gyr_{a}", res.bias_gyr[:, i])
+        for i, name in enumerate(("roll", "pitch", "yaw")):
+            put(f"std_{name}", res.std_rpy[:, i])
     bad = np.zeros(n, bool)
     bad[rows] = flag
     cols["mag_implausible"] = pa.array(bad, mask=~mask)
@@ -329,6 +404,7 @@ def dmc_table(
         _xyz(table, "mag_"),  # type: ignore[arg-type]
         acc_kin=_xyz(table, "a"),
         vel=_xyz(table, "v"),
+        gyr=_xyz(table, "gyr_"),
         azimuth_deg=float((meta.get("frame") or {}).get("azimuth_deg", 0.0)),
         site=site or session_site(table, meta),
         when=when,

@@ -19,12 +19,21 @@ Sensors (the errors of a MEMS digital magnetic compass and an RTK receiver):
   instants: bias, scale-factor error, white noise, ski vibration during the run,
   range saturation; magnetometer hard-iron bias, scale error and noise on the
   WMM field;
+* a MEMS gyroscope (``gyro=True``, the default) on the same instants: the truth
+  body rate plus the Earth rate, as an integrating (delta-angle) gyro outputs it --
+  sample k is the mean rate over the interval ending at it
+  (:func:`sportfusion.core.rotations.body_rates`), so integrating the error-free
+  samples reproduces the truth attitude -- with a turn-on bias, a bias random
+  walk, scale-factor error, white noise, ski vibration and range saturation.  Its
+  errors come from their own random stream (a child of ``seed``): the
+  accelerometer, magnetometer and GNSS samples are the same with or without it;
 * GNSS at ``gnss_rate`` (10-20 Hz): RTK fixed epochs (cm noise) with float
   episodes (a decimetre offset that appears at the fixed->float transition and
   vanishes at float->fixed, plus larger noise, and optimistic reported sigmas)
   and short losses of lock (no epochs, followed by a float re-convergence).
 
-Everything random comes from one ``numpy.random.Generator`` seeded by ``seed``.
+Everything random comes from ``numpy.random.Generator`` s seeded by ``seed`` (the
+gyroscope's from ``SeedSequence(seed).spawn(1)[0]``).
 """
 
 from __future__ import annotations
@@ -37,7 +46,7 @@ import pyarrow as pa
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.gravity import normal_gravity
 from sportfusion.core.magfield import reference_field
-from sportfusion.core.rotations import euler_from_quat, local_to_ned, quat_from_euler, to_body
+from sportfusion.core.rotations import body_rates, euler_from_quat, local_to_ned, quat_from_euler, to_body
 from sportfusion.core.session import Stream, merge_streams
 
 FINE_DT = 0.001  # truth grid [s]
@@ -79,6 +88,14 @@ class SkiRaceConfig:
     mag_bias: float = 0.3  # [uT] 1-sigma per axis (residual hard iron)
     mag_scale: float = 0.005  # 1-sigma
     mag_noise: float = 0.1  # [uT] per sample
+    # gyroscope errors (a consumer MEMS gyro, as in the gates simulator)
+    gyro: bool = True  # write gyr_x gyr_y gyr_z [rad/s]
+    gyr_bias: float = 0.01  # [rad/s] 1-sigma per axis, turn-on bias
+    gyr_bias_walk: float = 2e-4  # [rad/s/sqrt(s)] bias random walk
+    gyr_scale: float = 0.003  # 1-sigma
+    gyr_noise: float = 0.002  # [rad/s] per sample
+    gyr_vibration: float = 0.01  # [rad/s] per sample while skiing
+    gyr_range: float = 2000.0 * np.pi / 180.0  # [rad/s]
 
 
 @dataclass
@@ -220,13 +237,39 @@ def _geodetic(local: np.ndarray, cfg: SkiRaceConfig) -> tuple[np.ndarray, np.nda
     return np.asarray(lat), np.asarray(lon), np.asarray(h)
 
 
+def _gyro(cfg: SkiRaceConfig, ti: np.ndarray, q_i: np.ndarray, running: np.ndarray, lat_deg: float) -> np.ndarray:
+    """Gyroscope samples [rad/s] at the IMU instants ``ti`` from the truth attitude ``q_i`` there.
+
+    Truth: the mean body rate over each sample interval (:func:`body_rates`) plus the Earth rate in the
+    body frame; errors from their own random stream (a child of ``cfg.seed``), so the other sensors'
+    samples do not depend on whether the gyroscope is simulated.
+    """
+    from sportfusion.skirace.attitude import OMEGA_EARTH
+
+    rng = np.random.default_rng(np.random.SeedSequence(cfg.seed).spawn(1)[0])
+    phi = np.deg2rad(lat_deg)
+    w_ie = OMEGA_EARTH * np.array([np.cos(phi), 0.0, -np.sin(phi)])  # NED
+    w_b = body_rates(ti, q_i) + to_body(q_i, np.broadcast_to(w_ie, q_i[:, 1:].shape))
+    dt = 1.0 / cfg.imu_rate
+    walk = np.cumsum(rng.normal(0, cfg.gyr_bias_walk * np.sqrt(dt), w_b.shape), axis=0)
+    gyr = (
+        w_b * (1 + rng.normal(0, cfg.gyr_scale, 3))
+        + rng.normal(0, cfg.gyr_bias, 3)
+        + walk
+        + rng.normal(0, cfg.gyr_noise, w_b.shape)
+        + rng.normal(0, cfg.gyr_vibration, w_b.shape) * running[:, None]
+    )
+    return np.clip(gyr, -cfg.gyr_range, cfg.gyr_range)
+
+
 def simulate_skirace(cfg: SkiRaceConfig | None = None) -> SkiRaceSim:
     """Simulate one run: session table (sensors), truth table and metadata.
 
     Returns
     -------
     SkiRaceSim
-        ``session`` (kind session): ``acc_* mag_*`` at the IMU instants,
+        ``session`` (kind session): ``acc_* mag_*`` (and ``gyr_*`` [rad/s]
+        unless ``cfg.gyro`` is False) at the IMU instants,
         ``lat lon h vel_* gnss_fix gnss_sats gnss_sigma_h gnss_sigma_v`` and the
         local ``gnss_x gnss_y gnss_z std_gnss_*`` (as gps2hill writes them in
         the course frame) at the GNSS epochs; ``truth`` (kind truth) at every
@@ -274,6 +317,8 @@ def simulate_skirace(cfg: SkiRaceConfig | None = None) -> SkiRaceSim:
         + rng.normal(0, cfg.mag_bias, 3)
         + rng.normal(0, cfg.mag_noise, m_b.shape)
     )
+
+    gyr = _gyro(cfg, ti, q_i, running, lat0) if cfg.gyro else None
 
     # --- GNSS at gnss_rate (offset 3 ms from the IMU grid) --------------
     tg = np.round((np.arange(0.0, T, 1.0 / cfg.gnss_rate) + 0.003) / FINE_DT) * FINE_DT
@@ -332,6 +377,7 @@ def simulate_skirace(cfg: SkiRaceConfig | None = None) -> SkiRaceSim:
             "mag_x": mag[:, 0],
             "mag_y": mag[:, 1],
             "mag_z": mag[:, 2],
+            **({f"gyr_{a}": gyr[:, i] for i, a in enumerate("xyz")} if gyr is not None else {}),
         },
     )
     session, _ = merge_streams([dmc, gnss])
