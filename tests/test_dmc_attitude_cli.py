@@ -223,3 +223,42 @@ def test_magnetometer_on_other_rows_is_interpolated(sim):
     q2 = np.column_stack([moved.columns[f"q{i}"] for i in range(4)])[pos][same.rows]
     assert np.median(np.degrees(quat_angle(q1, q2))) < 0.3
     assert moved.rows.sum() == same.rows.sum()
+
+
+def test_instantaneous_gyro_samples(sim, smoothed):
+    """A gyro that samples the rate at the instant (a phone): --gyro-samples instant averages each interval
+    (trapezoid) and is closer to the truth than reading the samples as interval means (half a sample late)."""
+    s, _ = sim
+    spl = sfio.table_from_bytes(smoothed)
+    t = floats(spl, "t")
+    rows = np.isfinite(floats(spl, "gyr_x"))
+    m = body_rates(t[rows], quats(s.truth, "true_")[rows])  # truth's interval means
+    inst = np.column_stack([floats(spl, f"gyr_{a}") for a in "xyz"])[rows]
+    inst[:-1] += 0.5 * (m[1:] - m[:-1])  # the same errors about the rate at the sample's instant
+    for i, a in enumerate("xyz"):
+        col = floats(spl, f"gyr_{a}").copy()
+        col[rows] = inst[:, i]
+        spl = spl.set_column(spl.schema.get_field_index(f"gyr_{a}"), f"gyr_{a}", pa.array(col))
+    data = sfio.table_to_bytes(spl, sfio.get_meta(spl))
+    med = {}
+    for how in ("mean", "instant"):
+        out, _ = cli(["dmc-attitude", "--gyro-samples", how], data)
+        assert sfio.get_meta(out)["provenance"][-1]["params"]["gyro_samples"] == how
+        r, e = errors_deg(out, s.truth)
+        run = floats(out, "t")[r] > 6.0
+        med[how] = (np.median(e[run]), np.percentile(e[run], 90))
+    print(f"instantaneous gyro: read as instant {med['instant']}, as interval means {med['mean']} (median, p90 deg)")
+    assert med["instant"][0] < med["mean"][0] and med["instant"][1] < med["mean"][1]
+
+
+def test_gyro_sampling_from_the_metadata():
+    """auto: a simulated session (or the raw files simulate exports) -> interval means; a recording -> instant."""
+    from sportfusion.skirace.dmc import gyro_sampling
+
+    assert gyro_sampling({"provenance": [{"tool": "simulate skirace"}]})[0] == "mean"
+    sim_raw = {"provenance": [{"tool": "ingest"}], "sources": [{"device": {"deviceBrand": "sportfusion"}}]}
+    assert gyro_sampling(sim_raw)[0] == "mean"
+    phone = {"provenance": [{"tool": "ingest"}], "sources": [{"format": "phyphox", "device": {"deviceBrand": "Google"}}]}
+    assert gyro_sampling(phone)[0] == "instant"
+    assert gyro_sampling({"provenance": [{"tool": "ingest"}], "sources": [{"format": "csv"}]})[0] == "instant"
+    assert gyro_sampling({})[0] == "mean"

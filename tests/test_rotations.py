@@ -141,3 +141,15 @@ def test_body_rates_and_integration_are_inverse():
     dot = np.gradient(np.unwrap(eul, axis=1), t, axis=1)  # Euler rates
     wx = dot[0] - dot[2] * np.sin(eul[1])  # body rates from Euler rates (z-y-x)
     assert np.median(np.abs(w[1:, 0] - np.interp(tm, t, wx))) < 1e-3
+
+
+def test_interval_mean_rates_exact_for_a_linear_rate():
+    """Instantaneous samples of a rate linear in time -> the exact mean over each interval (trapezoid)."""
+    from sportfusion.core.rotations import interval_mean_rates
+
+    t = np.cumsum(np.r_[0.0, np.full(9, 0.02)])
+    w_at = np.outer(t, [1.0, -2.0, 0.5]) + [0.1, 0.0, -0.3]  # w(t) sampled at the instants
+    got = interval_mean_rates(w_at)
+    mid = 0.5 * (t[1:] + t[:-1])
+    np.testing.assert_allclose(got[1:], np.outer(mid, [1.0, -2.0, 0.5]) + [0.1, 0.0, -0.3], atol=1e-15)
+    np.testing.assert_array_equal(got[0], w_at[0])

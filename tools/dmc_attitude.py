@@ -6,7 +6,7 @@ from __future__ import annotations
 import click
 
 from sportfusion.core.session import with_columns
-from sportfusion.skirace.dmc import dmc_table
+from sportfusion.skirace.dmc import dmc_table, gyro_sampling
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_floats
 
@@ -102,6 +102,16 @@ from sportfusion.tools._options import parse_floats
     help="With a gyro: 1-sigma of the magnetic field direction [rad].",
 )
 @click.option(
+    "--gyro-samples",
+    type=click.Choice(["auto", "mean", "instant"]),
+    default="auto",
+    show_default=True,
+    help="With a gyro: what a gyr_* sample is -- the mean rate over the interval ending at it (a delta-angle "
+    "gyro; simulate skirace) or the rate at that instant (phones, most MEMS loggers; averaged over each "
+    "interval by the trapezoid). auto: instant for a recording read by ingest, mean for a simulated session. "
+    "Read as mean, an instantaneous gyro lags half a sample [choice].",
+)
+@click.option(
     "--gyro-noise",
     default=3e-4,
     show_default=True,
@@ -128,6 +138,7 @@ def main(
     coriolis: bool,
     free_fall: float,
     no_gyro: bool,
+    gyro_samples: str,
     acc_sigma: float,
     mag_sigma: float,
     gyro_noise: float,
@@ -156,6 +167,9 @@ def main(
     bias_gyr_x bias_gyr_y bias_gyr_z [rad/s] and std_roll std_pitch std_yaw
     [rad] (1-sigma). --no-gyro gives the DMC alone."""
     table, meta = tool.read()
+    why = "--gyro-samples"
+    if gyro_samples == "auto":
+        gyro_samples, why = gyro_sampling(meta)
     result = dmc_table(
         table,
         meta,
@@ -170,6 +184,7 @@ def main(
         coriolis=coriolis,
         free_fall=free_fall,
         use_gyro=not no_gyro,
+        gyro_samples=gyro_samples,
         sigma_acc=acc_sigma,
         sigma_mag=mag_sigma,
         gyro_noise=gyro_noise,
@@ -183,4 +198,10 @@ def main(
         f"{i['rows']} attitude rows at {i['rate_hz']:.1f} Hz ({how}), {i['singular']} singular; magnetic reference "
         f"{i['mag_ref_source']} (inclination {i['inclination_deg']:.2f} deg, declination {i['declination_deg']:.2f} deg)"
     )
-    tool.write(with_columns(table, result.columns), meta, dict(tool.params, method=i["method"]))
+    if i["method"] == "gyro+dmc":
+        tool.info(
+            f"gyro samples read as {'instantaneous rates' if gyro_samples == 'instant' else 'interval means'} ({why})"
+        )
+    tool.write(
+        with_columns(table, result.columns), meta, dict(tool.params, method=i["method"], gyro_samples=gyro_samples)
+    )

@@ -290,6 +290,19 @@ def body_rates(t: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.concatenate((w[:1], w))
 
 
+def interval_mean_rates(w: np.ndarray) -> np.ndarray:
+    """Instantaneous gyro samples (N, 3) [rad/s] -> the mean rate over each interval ending at the sample.
+
+    Row ``k`` is ``(w_{k-1} + w_k) / 2`` (the trapezoid; exact for a rate linear in time over the
+    interval), row 0 unchanged: the convention :func:`integrate_body_rates` expects.  For gyroscopes
+    that sample the rate (phones, most MEMS loggers) rather than integrate it (delta-angle output).
+    """
+    w = np.asarray(w, dtype=float)
+    out = w.copy()
+    out[1:] = 0.5 * (w[1:] + w[:-1])
+    return out
+
+
 def integrate_body_rates(q0: np.ndarray, t: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Strap-down attitude ``q_k = q_{k-1} ⊗ Exp(w_k (t_k - t_{k-1}))`` from ``q_BO`` at ``t[0]``.
 

@@ -36,7 +36,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import G_STANDARD, normal_gravity
 from sportfusion.core.magfield import field_from_angles, inclination_declination, reference_field
-from sportfusion.core.rotations import local_to_ned, ned_to_local
+from sportfusion.core.rotations import interval_mean_rates, local_to_ned, ned_to_local
 from sportfusion.skirace.attitude import (
     coriolis_ned,
     dip_from_quiet,
@@ -97,6 +97,7 @@ def dmc_session(
     norm_tol: float = 0.2,
     gyr: np.ndarray | None = None,
     use_gyro: bool = True,
+    gyro_samples: str = "mean",
     sigma_acc: float = 0.5,
     sigma_mag: float = 0.02,
     gyro_noise: float = 3e-4,
@@ -132,6 +133,11 @@ def dmc_session(
         ``mag_implausible`` and counted in a warning.
     gyr : (N, 3) body rate [rad/s] (``gyr_x gyr_y gyr_z``), NaN where not sampled, or None.
     use_gyro : fuse ``gyr`` when given (False: the DMC alone, as without a gyro).
+    gyro_samples : ``"mean"``: each gyro row is the mean rate over the interval ending at it (a
+        delta-angle gyroscope; what ``simulate skirace`` writes); ``"instant"``: the rate at that instant
+        (phones, most MEMS loggers), turned into interval means by the trapezoid
+        (:func:`sportfusion.core.rotations.interval_mean_rates`) -- read as "mean", an instantaneous
+        gyro lags half a sample.
     sigma_acc : 1-sigma of the specific-force observation [m/s^2] (gyro path; inflated by the
         difference of the measured and reference lengths).
     sigma_mag : 1-sigma of the field direction [rad] (gyro path).
@@ -246,6 +252,8 @@ def dmc_session(
         miss = ~np.all(np.isfinite(w_b), axis=1)
         if miss.any():
             w_b[miss] = _fill(t, np.asarray(gyr, float), rows)[miss]
+        if gyro_samples not in ("mean", "instant"):
+            raise InputError(f"gyro samples {gyro_samples!r}; expected mean or instant")
         uncovered = int((~np.all(np.isfinite(w_b), axis=1)).sum())
         if uncovered:
             warnings.append(
@@ -255,6 +263,8 @@ def dmc_session(
         elif rows.size < 2:
             warnings.append("one attitude row: attitude from the DMC alone")
         else:
+            if gyro_samples == "instant":
+                w_b = interval_mean_rates(w_b)
             try:
                 res = gyro_dmc_attitude(
                     t[rows],
@@ -341,6 +351,25 @@ def dmc_session(
     cols["mag_implausible"] = pa.array(bad, mask=~mask)
     info.update({"rows": int(rows.size), "singular": int(res.singular.sum()), "rate_hz": fs})
     return DMCSessionResult(cols, mask, info, warnings)
+
+
+def gyro_sampling(meta: dict) -> tuple[str, str]:
+    """What the session's gyro samples are, from its metadata: ``("mean" | "instant", why)``.
+
+    ``simulate skirace`` writes interval means (a delta-angle gyro), also into the raw files it exports
+    (their device brand is ``sportfusion``); a recording read by ``ingest`` from any other device (phones,
+    MEMS loggers) samples the rate at the instant; without either clue, interval means.
+    """
+    tools = [str(p.get("tool", "")) for p in meta.get("provenance") or []]
+    sources = meta.get("sources") or []
+    simulated = any(t.startswith("simulate") for t in tools) or any(
+        str((s.get("device") or {}).get("deviceBrand", "")).lower() == "sportfusion" for s in sources
+    )
+    if simulated:
+        return "mean", "a simulated gyro: each sample the mean rate over its interval"
+    if sources or "ingest" in tools:
+        return "instant", "a recorded gyro (phone, MEMS logger): each sample the rate at its instant"
+    return "mean", "no recording source in the metadata: each sample taken as the mean rate over its interval"
 
 
 def _xyz(table: pa.Table, prefix: str, suffix: str = "") -> np.ndarray | None:
