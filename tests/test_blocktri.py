@@ -45,3 +45,27 @@ def test_a_matrix_that_is_not_positive_definite_is_refused() -> None:
     e[4] *= 100.0  # strong coupling: a Schur complement turns indefinite
     with pytest.raises(np.linalg.LinAlgError):
         blocktri.factor(d, e)
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 8, 17])
+def test_bordered_solve_and_inverse_blocks_match_dense(n: int) -> None:
+    b, c = 6, 3
+    d, e, a = _system(n, b, seed=100 + n)
+    rng = np.random.default_rng(n)
+    border = 0.3 * rng.normal(size=(n, b, c))
+    corner = rng.normal(size=(c, c))
+    corner = corner @ corner.T + 10.0 * n * np.eye(c)
+    full = np.block([[a, border.reshape(n * b, c)], [border.reshape(n * b, c).T, corner]])
+    assert np.linalg.eigvalsh(full).min() > 0
+    f = blocktri.factor_bordered(d, e, border, corner)
+    r, rc = rng.normal(size=(n, b)), rng.normal(size=c)
+    x, xc = blocktri.solve_bordered(f, r, rc)
+    ref = np.linalg.solve(full, np.r_[r.ravel(), rc])
+    assert np.allclose(np.r_[x.ravel(), xc], ref, rtol=1e-10, atol=1e-12)
+    inv = np.linalg.inv(full)
+    g, gc, gb = blocktri.diagonal_of_inverse_bordered(f)
+    assert np.allclose(gc, inv[n * b :, n * b :], rtol=1e-10, atol=1e-13)
+    for k in range(n):
+        sl = slice(k * b, (k + 1) * b)
+        assert np.allclose(g[k], inv[sl, sl], rtol=1e-10, atol=1e-13)
+        assert np.allclose(gb[k], inv[sl, n * b :], rtol=1e-10, atol=1e-13)

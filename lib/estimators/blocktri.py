@@ -20,6 +20,19 @@ blocks, no LAPACK banded solver and no ``scipy.linalg`` import).  The diagonal b
 
 from the diagonal and first off-diagonal blocks of the reduced system's inverse.  A level with an
 even number of blocks gets a decoupled identity block appended (it changes nothing).
+
+Bordered systems
+----------------
+Constant parameters (a sensor bias over the whole record) couple every block to a few extra
+unknowns: the matrix becomes ``[[A, B], [B^T, C]]`` with ``A`` block tridiagonal, a dense border
+``B`` (``n`` blocks of ``b x c``) and a corner ``C`` (``c x c``).  :func:`factor_bordered` eliminates
+the blocks first (a Schur complement on the border): with ``Y = A^-1 B`` (``c`` right-hand sides of
+the cyclic reduction) and ``S = C - B^T Y``,
+
+    x_c = S^-1 (r_c - Y^T r),   x = A^-1 r - Y x_c,
+
+and the inverse's blocks are ``A^-1 + Y S^-1 Y^T`` (diagonal), ``-Y S^-1`` (border) and ``S^-1``
+(corner).  The work stays O(n b^2 c + n b^3): linear in ``n``.
 """
 
 from __future__ import annotations
@@ -28,7 +41,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CyclicReduction", "factor", "solve", "diagonal_of_inverse"]
+__all__ = [
+    "CyclicReduction",
+    "Bordered",
+    "factor",
+    "solve",
+    "diagonal_of_inverse",
+    "factor_bordered",
+    "solve_bordered",
+    "diagonal_of_inverse_bordered",
+]
 
 
 @dataclass
@@ -144,3 +166,57 @@ def diagonal_of_inverse(f: CyclicReduction) -> np.ndarray:
         off[1::2] = -_t(left[1:])  # G[k, k+1] = G[k+1, k]^T, k odd
         g, c = (diag[:-1], off[:-1]) if lev.padded else (diag, off)
     return g
+
+
+@dataclass
+class Bordered:
+    """A factorised bordered block-tridiagonal matrix ``[[A, B], [B^T, C]]`` (from :func:`factor_bordered`)."""
+
+    tri: CyclicReduction  # A
+    y: np.ndarray  # (n, b, c) A^-1 B
+    s_inv: np.ndarray  # (c, c) inverse of the Schur complement S = C - B^T A^-1 B
+
+
+def factor_bordered(d: np.ndarray, e: np.ndarray, border: np.ndarray, corner: np.ndarray) -> Bordered:
+    """Factor ``[[A, B], [B^T, C]]``, ``A`` block tridiagonal (``d``, ``e``), by a Schur complement on the border.
+
+    Parameters
+    ----------
+    d : numpy.ndarray, shape (n, b, b)
+        Diagonal blocks of ``A`` (symmetric).
+    e : numpy.ndarray, shape (n - 1, b, b)
+        Upper off-diagonal blocks ``A[k, k+1]``.
+    border : numpy.ndarray, shape (n, b, c)
+        The border ``B``: block ``k`` couples the unknowns of block ``k`` to the ``c`` border unknowns.
+    corner : numpy.ndarray, shape (c, c)
+        ``C`` (symmetric).
+
+    Returns
+    -------
+    Bordered
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the matrix is not positive definite.
+    """
+    border = np.asarray(border, dtype=np.float64)
+    tri = factor(d, e)
+    y = solve(tri, border)
+    s = np.asarray(corner, dtype=np.float64) - np.einsum("nbi,nbj->ij", border, y)
+    s = 0.5 * (s + s.T)
+    return Bordered(tri, y, _spd_inverse(s[None])[0])
+
+
+def solve_bordered(f: Bordered, r: np.ndarray, rc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``[[A, B], [B^T, C]]^-1 [r; rc]`` for ``r`` (n, b) and ``rc`` (c,): returns ``(x, x_c)``."""
+    r = np.asarray(r, dtype=np.float64)
+    xa = solve(f.tri, r)
+    xc = f.s_inv @ (np.asarray(rc, dtype=np.float64) - np.einsum("nbi,nb->i", f.y, r))
+    return xa - np.einsum("nbi,i->nb", f.y, xc), xc
+
+
+def diagonal_of_inverse_bordered(f: Bordered) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Blocks of ``[[A, B], [B^T, C]]^-1``: the diagonal (n, b, b), the corner (c, c) and the border (n, b, c)."""
+    ys = f.y @ f.s_inv
+    return diagonal_of_inverse(f.tri) + ys @ _t(f.y), f.s_inv, -ys
