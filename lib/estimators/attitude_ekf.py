@@ -42,13 +42,37 @@ right Jacobian of SO(3).  Process noise: ``Q_theta = N_g^2 dt I`` (gyro white no
 A vector observation ``z = M_BO(q) r + v`` (body ``z``, NED reference ``r``, isotropic noise of
 1-sigma ``s`` in the vectors' unit) has the residual ``z - M_BO(q) r`` and the Jacobian
 ``[M_BO(q) r]x`` on ``dtheta`` (zero on ``db``).
+
+Constant sensor biases (``obs_bias``)
+-------------------------------------
+An observation may carry a constant additive bias ``beta`` (3, body frame, in its vector's unit: an
+accelerometer's bias, a magnetometer's residual hard iron).  ``beta`` is three more unknowns shared
+by all steps, with a Gaussian prior (``obs_bias0``, 1-sigma ``obs_bias[i]``) and no process noise:
+
+* a vector observation: ``z - beta = M_BO(q) r + v``; residual ``z - beta - M_BO(q) r``, Jacobian
+  (the "H" of the prediction, as above) ``[M_BO r]x`` on ``dtheta`` and ``I`` on ``dbeta``;
+* a direction observation (``direction``): only the direction of ``z - beta`` is compared,
+  ``u = (z - beta)/|z - beta| = M_BO(q) r^`` (``r^ = r/|r|``, 1-sigma ``s`` in rad).  The noise is the
+  sensor's, in its unit: the residual is ``v - |v| M_BO(q) r^`` (``v = z - beta``; ``|v|`` times the
+  direction residual) with 1-sigma ``s * rho`` (``rho`` the median ``|z|``), Jacobian
+  ``|v| [M_BO r^]x`` on ``dtheta`` and ``I - M_BO r^ u^T`` on ``dbeta``.  (Weighting the direction
+  residual ``u - M_BO r^`` by ``1/s^2`` alone would let ``beta`` grow along the field: a longer
+  ``z - beta`` shrinks the noise's angle, a spurious gain.)
+
+:func:`att_observe_biased` gives both.  A body-frame bias is observable through rotations: it turns
+with the body against the reference, which the gyro and the other vector see; held still it is
+indistinguishable from a tilt or heading (the prior keeps it).  In the batch solver each bias adds
+3 columns that border every step: the normal equations are block tridiagonal plus a dense border,
+solved by a Schur complement on the border (:func:`sportfusion.estimators.blocktri.factor_bordered`),
+still linear in the number of steps.  The EKF + RTS reference carries the biases as augmented states
+(error state ``[dtheta, db, dbeta_1, ...]``, ``Phi`` the identity and no process noise on them).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Collection, Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -71,6 +95,7 @@ __all__ = [
     "att_boxminus",
     "att_propagate",
     "att_observe",
+    "att_observe_biased",
     "right_jacobian",
     "process_residuals",
 ]
@@ -182,6 +207,40 @@ def att_observe(x: np.ndarray, ref_ned: np.ndarray) -> tuple[np.ndarray, np.ndar
     return h, H
 
 
+def att_observe_biased(
+    x: np.ndarray, z: np.ndarray, ref_ned: np.ndarray, direction: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """A vector observation with a constant bias (module docstring): its residual and Jacobian.
+
+    Parameters
+    ----------
+    x : (7,) ``[q_BO, beta]`` [1, unit of ``z``].
+    z : (3,) measured body vector (a specific force [m/s^2], a magnetometer sample [any unit]).
+    ref_ned : (3,) reference vector in NED [unit of ``z``; any unit when ``direction``].
+    direction : compare the direction of ``z - beta`` only.
+
+    Returns
+    -------
+    residual : (3,) ``z - beta - M_BO(q) r`` or, for a direction, ``v - |v| M_BO(q) r^`` with
+        ``v = z - beta`` [unit of ``z``].
+    H : (3, 6) minus the residual's Jacobian on ``[dtheta, dbeta]``: ``[M_BO r]x``, ``I`` or, for a
+        direction, ``|v| [M_BO r^]x``, ``I - M_BO r^ u^T`` (``u = v/|v|``).
+    """
+    v = z - x[4:7]
+    M = _dcm(_unit4(x[:4]))
+    H = np.empty((3, 6))
+    if not direction:
+        h = M @ ref_ned
+        H[:, :3] = _skew3(h)
+        H[:, 3:] = np.eye(3)
+        return v - h, H
+    n = math.sqrt(v @ v)
+    h = M @ (ref_ned / math.sqrt(ref_ned @ ref_ned))
+    H[:, :3] = n * _skew3(h)
+    H[:, 3:] = np.eye(3) - np.outer(h, v / n)
+    return v - n * h, H
+
+
 @dataclass
 class GyroAttitudeResult:
     """Output of :func:`gyro_vector_smoother`.
@@ -198,6 +257,9 @@ class GyroAttitudeResult:
         ``"batch"``: the residuals at the solution.
     iterations : Gauss-Newton iterations (``"batch"``), 1 for ``"rts"``.
     converged : the last Gauss-Newton attitude step was below ``tol`` (always True for ``"rts"``).
+    obs_bias : observation index -> (3,) its estimated constant bias [its unit] (empty without).
+    std_obs_bias : observation index -> (3,) its 1-sigma [its unit].
+    cov_obs_bias : (3k, 3k) covariance of the k biases, in increasing index order [their units^2], or None.
     """
 
     q: np.ndarray
@@ -209,6 +271,9 @@ class GyroAttitudeResult:
     residuals: dict[str, np.ndarray]
     iterations: int = 1
     converged: bool = True
+    obs_bias: dict[int, np.ndarray] = field(default_factory=dict)
+    std_obs_bias: dict[int, np.ndarray] = field(default_factory=dict)
+    cov_obs_bias: np.ndarray | None = None
 
 
 def _jr_batch(phi: np.ndarray) -> np.ndarray:
@@ -277,9 +342,16 @@ def _batch(
     w_ie_ned: np.ndarray | None,
     max_iter: int,
     tol: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, bool]:
+    biased: tuple[int, ...] = (),
+    direction: tuple[int, ...] = (),
+    beta0: np.ndarray | None = None,
+    Pb: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, bool, np.ndarray | None, np.ndarray | None]:
     """Gauss-Newton on the whole trajectory (module docstring); returns q, b, covariance blocks (at the
-    last linearisation), the iterations and whether the last attitude step was below ``tol``."""
+    last linearisation), the iterations, whether the last attitude step was below ``tol``, and the
+    constant biases of the observations ``biased`` (k, 3) with their covariance (3k, 3k) (None, None
+    without).  ``beta0`` (k, 3) and ``Pb`` (3k, 3k) are their prior; ``ref[:, i]`` of a ``direction``
+    observation must be unit vectors."""
     N = body.shape[0]
     dt = np.diff(t)
     Wp = np.zeros((N - 1, 6, 6))  # inverse process noise per step
@@ -289,6 +361,14 @@ def _batch(
     winv = np.where(use, 1.0 / np.where(use, var, 1.0), 0.0)  # (N, m) inverse variances, 0 when unused
     q = quat_normalize(q_init)
     b = np.broadcast_to(x0[4:], (N, 3)).copy()
+    nb = len(biased)
+    if nb:
+        assert beta0 is not None and Pb is not None
+        Pbi = np.linalg.inv(Pb)
+        beta = np.array(beta0, dtype=float, copy=True)
+        raw = np.where(use[:, biased, None], body[:, biased], 0.0)  # (N, k, 3)
+        wb = winv[:, biased].copy()
+        winv[:, biased] = 0.0  # the biased observations are added below
     iterations, converged = 0, False
     while iterations < max_iter and not converged:
         iterations += 1
@@ -307,20 +387,54 @@ def _batch(
         g[:-1] += np.einsum("nij,nj->ni", PtW, res)
         g[1:] -= np.einsum("nij,nj->ni", Wp, res)
         # vector observations: r = z - M r_ref, H = [[M r_ref]x, 0]
-        h = np.einsum("nij,nkj->nki", dcm_from_quat(q), ref)  # (N, m, 3)
+        M = dcm_from_quat(q)
+        h = np.einsum("nij,nkj->nki", M, ref)  # (N, m, 3)
         r = np.where(use[:, :, None], body - h, 0.0)
         hh = np.einsum("nki,nki->nk", h, h)
         # H^T H = [h]x^T [h]x = |h|^2 I - h h^T ; H^T r = [h]x^T r = r x h
         D[:, :3, :3] += np.einsum("nk,ij->nij", winv * hh, np.eye(3)) - np.einsum("nk,nki,nkj->nij", winv, h, h)
         g[:, :3] += np.einsum("nk,nki->ni", winv, np.cross(r, h))
-        f = blocktri.factor(D, E)
-        dx = blocktri.solve(f, g)
+        if not nb:
+            f = blocktri.factor(D, E)
+            dx = blocktri.solve(f, g)
+        else:
+            # each bias: H = [H_theta, H_beta] (att_observe_biased), its 3 columns border every step
+            border = np.zeros((N, 6, 3 * nb))
+            corner = Pbi.copy()
+            gc = -Pbi @ (beta - beta0).ravel()
+            eye = np.broadcast_to(np.eye(3), (N, 3, 3))
+            for j, i in enumerate(biased):
+                v = raw[:, j] - beta[j]
+                hj = h[:, i]
+                if i in direction:
+                    rho = np.linalg.norm(v, axis=1)
+                    u = v / np.where(rho > 0, rho, 1.0)[:, None]
+                    rb = v - rho[:, None] * hj
+                    Ht = rho[:, None, None] * skew(hj)
+                    Hb = eye - np.einsum("ni,nj->nij", hj, u)
+                else:
+                    rb = v - hj
+                    Ht = skew(hj)
+                    Hb = eye
+                w = wb[:, j]
+                HtW = np.swapaxes(Ht, 1, 2) * w[:, None, None]
+                D[:, :3, :3] += HtW @ Ht
+                g[:, :3] += np.einsum("nij,nj->ni", HtW, rb)
+                c = slice(3 * j, 3 * j + 3)
+                border[:, :3, c] = HtW @ Hb
+                corner[c, c] += np.einsum("n,nki,nkj->ij", w, Hb, Hb)
+                gc[c] += np.einsum("n,nki,nk->i", w, Hb, rb)
+            f = blocktri.factor_bordered(D, E, border, corner)
+            dx, dbeta = blocktri.solve_bordered(f, g, gc)
+            beta = beta + dbeta.reshape(nb, 3)
         q = quat_normalize(quat_multiply(q, quat_from_rotvec(dx[:, :3])))
         b = b + dx[:, 3:]
         converged = float(np.max(np.abs(dx[:, :3]))) < tol
-    cov = blocktri.diagonal_of_inverse(f)
     q = np.where(q[:, :1] < 0, -q, q)
-    return q, b, cov, iterations, converged
+    if not nb:
+        return q, b, blocktri.diagonal_of_inverse(f), iterations, converged, None, None
+    cov, cov_beta, _ = blocktri.diagonal_of_inverse_bordered(f)
+    return q, b, cov, iterations, converged, beta, cov_beta
 
 
 def gyro_vector_smoother(
@@ -343,6 +457,9 @@ def gyro_vector_smoother(
     max_iter: int = 10,
     tol: float = 1e-7,
     progress: Callable[[int], object] | None = None,
+    obs_bias: Mapping[int, float] | None = None,
+    obs_bias0: Mapping[int, np.ndarray] | None = None,
+    direction: Collection[int] = (),
 ) -> GyroAttitudeResult:
     """Smoothed attitude and gyro bias from body rates and vector observations (EKF + RTS).
 
@@ -367,6 +484,11 @@ def gyro_vector_smoother(
         Within some degrees of the answer it converges in a few iterations.
     max_iter, tol : Gauss-Newton iterations at most, and the largest attitude step [rad] that ends them.
     progress : callable(k) per step of each pass of ``"rts"``, or None.
+    obs_bias : observation index -> prior 1-sigma per axis [its unit] of a constant additive bias of that
+        observation in the body frame, estimated along (module docstring); None or empty: none.
+    obs_bias0 : observation index -> (3,) prior mean of its bias [its unit] (default 0).
+    direction : indices of biased observations compared by their direction only (``body[:, i]`` raw, in
+        any unit; ``ref[:, i]`` any length; ``sigma[:, i]`` [rad]).
 
     Returns
     -------
@@ -390,6 +512,32 @@ def gyro_vector_smoother(
         raise ValueError("gyro_noise and bias_walk must be positive")
     x0 = np.concatenate((quat_normalize(q0), np.zeros(3) if bias0 is None else np.asarray(bias0, float)))
     P0 = np.diag([sigma_q0**2] * 3 + [sigma_bias0**2] * 3)
+    biased = tuple(sorted(obs_bias or {}))
+    direction = tuple(sorted(direction))
+    nb = len(biased)
+    beta0, Pb = None, None
+    if any(not 0 <= i < m for i in biased):
+        raise ValueError(f"obs_bias {biased}: not observation indices (0..{m - 1})")
+    if not set(direction) <= set(biased):
+        raise ValueError(f"direction {direction}: a direction observation must be in obs_bias")
+    if nb:
+        s_b = np.array([float(obs_bias[i]) for i in biased])  # type: ignore[index]
+        if not np.all(np.isfinite(s_b) & (s_b > 0)):
+            raise ValueError("obs_bias: the prior 1-sigmas must be positive")
+        beta0 = np.array(
+            [np.zeros(3) if i not in (obs_bias0 or {}) else np.asarray(obs_bias0[i], float) for i in biased]
+        )  # type: ignore[index]
+        Pb = np.diag(np.repeat(s_b, 3) ** 2)
+    if direction:
+        sigma, ref = sigma.copy(), ref.copy()
+        for i in direction:
+            rho = np.linalg.norm(body[:, i], axis=-1)
+            use[:, i] &= rho > 0
+            if use[:, i].any():  # the direction's 1-sigma [rad] as the sensor's [its unit] at its median length
+                sigma[:, i] *= float(np.median(rho[use[:, i]]))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ref[:, i] /= np.linalg.norm(ref[:, i], axis=-1, keepdims=True)
+            use[:, i] &= np.isfinite(ref[:, i]).all(axis=-1)
     if method == "batch":
         if q_init is None:
             from sportfusion.core.rotations import integrate_body_rates
@@ -399,21 +547,44 @@ def gyro_vector_smoother(
                 w = w - np.asarray(w_ie_ned, float) @ dcm_from_quat(x0[:4]).T  # first-step Earth rate
             q_init = integrate_body_rates(x0[:4], t, w)
         var = np.where(use, sigma, 1.0) ** 2
-        q, b, cov, it, ok = _batch(t, gyr, body, ref, var, use, x0, P0, q_init, qn, bn, w_ie_ned, max_iter, tol)
+        q, b, cov, it, ok, beta, cov_beta = _batch(
+            t, gyr, body, ref, var, use, x0, P0, q_init, qn, bn, w_ie_ned, max_iter, tol, biased, direction, beta0, Pb
+        )
         d = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
         h = np.einsum("nij,nkj->nki", dcm_from_quat(q), ref)
-        res = {names[i]: np.where(use[:, i, None], body[:, i] - h[:, i], np.nan) for i in range(m)}
-        return GyroAttitudeResult(q, b, d[:, :3], cov[:, :3, :3], d[:, 3:], None, res, it, ok)
+        obs = body
+        if nb and beta is not None:
+            obs = body.copy()
+            for j, i in enumerate(biased):
+                obs[:, i] = body[:, i] - beta[j]
+                if i in direction:  # residual of the direction [1 ~ rad]
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        obs[:, i] /= np.linalg.norm(obs[:, i], axis=-1, keepdims=True)
+        res = {names[i]: np.where(use[:, i, None], obs[:, i] - h[:, i], np.nan) for i in range(m)}
+        out = GyroAttitudeResult(q, b, d[:, :3], cov[:, :3, :3], d[:, 3:], None, res, it, ok)
+        if beta is not None and cov_beta is not None:
+            sb = np.sqrt(np.maximum(np.diag(cov_beta), 0.0))
+            out.obs_bias = {i: beta[j] for j, i in enumerate(biased)}
+            out.std_obs_bias = {i: sb[3 * j : 3 * j + 3] for j, i in enumerate(biased)}
+            out.cov_obs_bias = cov_beta
+        return out
     if method != "rts":
         raise ValueError(f"unknown method {method!r}: expected 'batch' or 'rts'")
     dt = np.diff(t)
+    ne = 6 + 3 * nb  # error-state size: [dtheta, db] (+ dbeta_j, constant)
+    if beta0 is not None and Pb is not None:
+        x0 = np.concatenate((x0, beta0.ravel()))
+        P0 = np.block([[P0, np.zeros((6, 3 * nb))], [np.zeros((3 * nb, 6)), Pb]])
+    slot = {i: 7 + 3 * j for j, i in enumerate(biased)}  # where bias i sits in x (its error at slot - 1)
 
     def propagate(k: int, x: np.ndarray):
-        xn, Phi = att_propagate(x, gyr[k + 1], dt[k], w_ie_ned)
-        Qd = np.zeros((6, 6))
+        xn, Phi6 = att_propagate(x[:7], gyr[k + 1], dt[k], w_ie_ned)
+        Phi = np.eye(ne)
+        Phi[:6, :6] = Phi6
+        Qd = np.zeros((ne, ne))
         Qd[:3, :3] = np.eye(3) * (qn * dt[k])
-        Qd[3:, 3:] = np.eye(3) * (bn * dt[k])
-        return xn, Phi, Qd
+        Qd[3:6, 3:6] = np.eye(3) * (bn * dt[k])
+        return np.concatenate((xn, x[7:])), Phi, Qd
 
     R_all = np.where(use, sigma, 1.0) ** 2  # an unused observation: zero rows (no effect), unit variance
 
@@ -423,12 +594,20 @@ def gyro_vector_smoother(
             return []
         M = _dcm(_unit4(x[:4]))
         h = ref[k] @ M.T  # (m, 3) predicted body vectors
-        r = np.where(use[k][:, None], body[k] - h, 0.0).ravel()
-        H = np.zeros((3 * m, 6))
+        r = np.where(use[k][:, None], body[k] - h, 0.0)
+        H = np.zeros((3 * m, ne))
         for i in range(m):
             if use[k, i]:
-                H[3 * i : 3 * i + 3, :3] = _skew3(h[i])
-        return [Measurement(r, H, np.repeat(R_all[k], 3), "vectors")]
+                if i in slot:
+                    c = slot[i]
+                    r[i], Hi = att_observe_biased(
+                        np.concatenate((x[:4], x[c : c + 3])), body[k, i], ref[k, i], i in direction
+                    )
+                    H[3 * i : 3 * i + 3, :3] = Hi[:, :3]
+                    H[3 * i : 3 * i + 3, c - 1 : c + 2] = Hi[:, 3:]
+                else:
+                    H[3 * i : 3 * i + 3, :3] = _skew3(h[i])
+        return [Measurement(r.ravel(), H, np.repeat(R_all[k], 3), "vectors")]
 
     r = ekf_rts(x0, P0, N, propagate, measure, progress=progress, t=t, boxplus=att_boxplus, boxminus=att_boxminus)
     q = r.x_smooth[:, :4]
@@ -441,4 +620,10 @@ def gyro_vector_smoother(
         v = r.residuals["vectors"].reshape(N, m, 3)
         for i in range(m):
             res[names[i]] = np.where(use[:, i, None], v[:, i], np.nan)
-    return GyroAttitudeResult(q, r.x_smooth[:, 4:], d[:, :3], r.P_smooth[:, :3, :3], d[:, 3:], qf, res)
+    out = GyroAttitudeResult(q, r.x_smooth[:, 4:7], d[:, :3], r.P_smooth[:, :3, :3], d[:, 3:6], qf, res)
+    if nb:
+        # a constant's smoothed estimate is the same at every step: report step 0's
+        out.obs_bias = {i: r.x_smooth[0, c : c + 3] for i, c in slot.items()}
+        out.std_obs_bias = {i: d[0, c - 1 : c + 2] for i, c in slot.items()}
+        out.cov_obs_bias = r.P_smooth[0, 6:, 6:]
+    return out
