@@ -125,6 +125,23 @@ from sportfusion.tools._options import parse_floats
     type=click.FloatRange(0, min_open=True),
     help="With a gyro: random walk of its bias [rad/s/sqrt(s)].",
 )
+@click.option(
+    "--mag-bias-sigma",
+    default=0.5,
+    show_default=True,
+    type=click.FloatRange(0),
+    help="With a gyro: prior 1-sigma per axis of the magnetometer's hard-iron bias [uT], estimated along "
+    "(bias_mag_x..z, in the magnetometer's unit: a normalised one gets the prior scaled by its norm over the "
+    "model's intensity); 0: not estimated.",
+)
+@click.option(
+    "--acc-bias-sigma",
+    default=0.05,
+    show_default=True,
+    type=click.FloatRange(0),
+    help="With a gyro: prior 1-sigma per axis of the accelerometer's bias [m/s^2], estimated along "
+    "(bias_acc_x..z); 0: not estimated.",
+)
 def main(
     tool: Tool,
     site: str | None,
@@ -143,6 +160,8 @@ def main(
     mag_sigma: float,
     gyro_noise: float,
     gyro_bias_walk: float,
+    mag_bias_sigma: float,
+    acc_bias_sigma: float,
 ) -> None:
     """Attitude on every accelerometer row from the magnetometer and the specific
     force (a digital magnetic compass) by Wahba's problem solved with QUEST.
@@ -165,7 +184,11 @@ def main(
     gyro carries it from sample to sample, the specific force and the field of
     every sample correct it, and the gyro bias is estimated along; this adds
     bias_gyr_x bias_gyr_y bias_gyr_z [rad/s] and std_roll std_pitch std_yaw
-    [rad] (1-sigma). --no-gyro gives the DMC alone."""
+    [rad] (1-sigma). The magnetometer's hard-iron bias and the accelerometer's
+    bias (constants in the body frame, observable through the run's rotations)
+    are estimated along too: bias_mag_x..z [uT, or the magnetometer's unit] and
+    bias_acc_x..z [m/s^2] with their std_ columns (--mag-bias-sigma,
+    --acc-bias-sigma; 0 leaves one out). --no-gyro gives the DMC alone."""
     table, meta = tool.read()
     why = "--gyro-samples"
     if gyro_samples == "auto":
@@ -189,6 +212,8 @@ def main(
         sigma_mag=mag_sigma,
         gyro_noise=gyro_noise,
         bias_walk=gyro_bias_walk,
+        sigma_mag_bias=mag_bias_sigma,
+        sigma_acc_bias=acc_bias_sigma,
     )
     for w in result.warnings:
         tool.warn(w)
@@ -198,9 +223,26 @@ def main(
         f"{i['rows']} attitude rows at {i['rate_hz']:.1f} Hz ({how}), {i['singular']} singular; magnetic reference "
         f"{i['mag_ref_source']} (inclination {i['inclination_deg']:.2f} deg, declination {i['declination_deg']:.2f} deg)"
     )
+    if "bias_mag" in i or "bias_acc" in i:
+        parts = []
+        if "bias_mag" in i:
+            parts.append(
+                "magnetometer hard iron " + " ".join(f"{v:+.3g}" for v in i["bias_mag"]) + f" {i['bias_mag_unit']}"
+            )
+        if "bias_acc" in i:
+            parts.append("accelerometer bias " + " ".join(f"{v:+.3g}" for v in i["bias_acc"]) + " m/s^2")
+        tool.info("estimated " + ", ".join(parts) + " (body x y z)")
     if i["method"] == "gyro+dmc":
         tool.info(
             f"gyro samples read as {'instantaneous rates' if gyro_samples == 'instant' else 'interval means'} ({why})"
+        )
+    if i.get("bias_mag_unit", "uT") != "uT":  # a normalised magnetometer: its bias in its unit
+        meta = dict(
+            meta,
+            units={
+                **(meta.get("units") or {}),
+                **{f"{p}bias_mag_{a}": i["bias_mag_unit"] for p in ("", "std_") for a in "xyz"},
+            },
         )
     tool.write(
         with_columns(table, result.columns), meta, dict(tool.params, method=i["method"], gyro_samples=gyro_samples)

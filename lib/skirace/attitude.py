@@ -94,6 +94,11 @@ class DMCResult:
     std_rpy : (N, 3) 1-sigma of roll, pitch, yaw [rad] (:func:`gyro_dmc_attitude` only, else None).
     iterations : Gauss-Newton iterations of :func:`gyro_dmc_attitude` (0 for the DMC alone).
     converged : whether those iterations converged (True for the DMC alone).
+    bias_mag : (3,) estimated magnetometer hard-iron bias, body frame [unit of the magnetometer]
+        (:func:`gyro_dmc_attitude` with ``sigma_mag_bias > 0`` only, else None).
+    std_bias_mag : (3,) its 1-sigma [unit of the magnetometer], or None.
+    bias_acc, std_bias_acc : (3,) estimated accelerometer bias, body frame, and its 1-sigma [m/s^2]
+        (:func:`gyro_dmc_attitude` with ``sigma_acc_bias > 0`` only, else None).
     """
 
     q: np.ndarray
@@ -107,6 +112,10 @@ class DMCResult:
     std_rpy: np.ndarray | None = None
     iterations: int = 0
     converged: bool = True
+    bias_mag: np.ndarray | None = None
+    std_bias_mag: np.ndarray | None = None
+    bias_acc: np.ndarray | None = None
+    std_bias_acc: np.ndarray | None = None
 
 
 def kinematic_acceleration(
@@ -237,6 +246,8 @@ def gyro_dmc_attitude(
     gyro_noise: float = 3e-4,
     bias_walk: float = 2e-4,
     sigma_bias0: float = 0.05,
+    sigma_mag_bias: float = 0.0,
+    sigma_acc_bias: float = 0.0,
     lat_deg: float | None = None,
     coriolis: np.ndarray | None = None,
     reference_ok: np.ndarray | None = None,
@@ -253,7 +264,11 @@ def gyro_dmc_attitude(
       lengths disagree (vibration, an impact, a GNSS acceleration the spline smoothed away) counts
       less, and near free fall both vectors are short, so it carries no tilt, as it should;
     * magnetic field: the unit vectors ``m^b/|m^b| = M_BO m^l/|m^l|`` with 1-sigma ``sigma_mag`` [rad]
-      (only the direction is used, as by QUEST: uT and normalised magnetometers give one answer).
+      (only the direction is used, as by QUEST: uT and normalised magnetometers give one answer);
+      with ``sigma_mag_bias > 0`` the magnetometer's constant hard-iron bias ``b_m`` is estimated
+      along (``(m^b - b_m)/|m^b - b_m| = M_BO m^l/|m^l|``, ``b_m`` in the body frame and the
+      magnetometer's unit, Gaussian prior ``N(0, sigma_mag_bias^2 I)``; the smoother's ``obs_bias``):
+      the rotations of the run make it observable, and the standing start benefits too.
 
     The starting trajectory is the per-sample DMC (``dmc``, :func:`dmc_attitude`) with its singular
     rows, and those without a usable reference, bridged by the gyro (:func:`bridge_with_gyro`).
@@ -269,6 +284,10 @@ def gyro_dmc_attitude(
     sigma_acc : [m/s^2]; acc_mismatch : [1]; sigma_mag : [rad].
     gyro_noise : [rad/s/sqrt(Hz)] white noise density; bias_walk : [rad/s/sqrt(s)]; sigma_bias0 : prior
         1-sigma of the bias [rad/s].
+    sigma_mag_bias : prior 1-sigma per axis of the magnetometer's hard-iron bias [unit of ``mag_body``];
+        0: not estimated (the field's direction as measured).
+    sigma_acc_bias : prior 1-sigma per axis of the accelerometer's bias [m/s^2] (``f^b - b_a = M_BO f^l``),
+        estimated along; 0: not estimated.
     lat_deg : latitude [deg] for the Earth rate the gyro also measures (None: left in).
     coriolis : (N, 3) optional ``(2 Omega_ie + Omega_el) v`` [m/s^2] for the re-estimated acceleration.
     reference_ok : (N,) bool, rows whose reference specific force is known (a GNSS acceleration, or a
@@ -278,7 +297,8 @@ def gyro_dmc_attitude(
     Returns
     -------
     DMCResult
-        With ``bias_gyr``, ``std_rpy`` and ``iterations``; ``loss`` and ``singular`` are the per-sample DMC's.
+        With ``bias_gyr``, ``std_rpy``, ``iterations`` (and ``bias_mag``, ``std_bias_mag`` when estimated);
+        ``loss`` and ``singular`` are the per-sample DMC's.
 
     Raises
     ------
@@ -290,7 +310,8 @@ def gyro_dmc_attitude(
 
     f_b = np.asarray(acc_body, float)
     f_l = np.asarray(f_ref_ned, float)
-    m_b = _unit(np.asarray(mag_body, float))
+    estimate_mag_bias = sigma_mag_bias > 0
+    m_b = np.asarray(mag_body, float) if estimate_mag_bias else _unit(np.asarray(mag_body, float))
     m_l = np.broadcast_to(_unit(np.asarray(m_ref_ned, float)), f_l.shape)
     mismatch = np.linalg.norm(f_b, axis=1) - np.linalg.norm(f_l, axis=1)
     s_acc = np.sqrt(sigma_acc**2 + (acc_mismatch * mismatch) ** 2)
@@ -317,6 +338,8 @@ def gyro_dmc_attitude(
         w_ie_ned=w_ie,
         names=("specific_force", "magnetic_field"),
         q_init=q_init,
+        obs_bias={i: s for i, s in ((0, float(sigma_acc_bias)), (1, float(sigma_mag_bias))) if s > 0},
+        direction=(1,) if estimate_mag_bias else (),
     )
     M = dcm_from_quat(res.q)
     roll, pitch, yaw = euler_from_dcm(M)
@@ -333,6 +356,10 @@ def gyro_dmc_attitude(
         std_rpy=std,
         iterations=res.iterations,
         converged=res.converged,
+        bias_mag=res.obs_bias.get(1),
+        std_bias_mag=res.std_obs_bias.get(1),
+        bias_acc=res.obs_bias.get(0),
+        std_bias_acc=res.std_obs_bias.get(0),
     )
 
 

@@ -15,8 +15,12 @@ observations on every row, tied together by the gyro, its bias estimated
 along) unless ``use_gyro`` is False; ``info["method"]`` says which ran
 (``gyro+dmc`` or ``dmc``).  The gyro-stabilised attitude adds
 ``bias_gyr_x bias_gyr_y bias_gyr_z`` [rad/s] and ``std_roll std_pitch
-std_yaw`` [rad]; ``quest_loss`` and ``dmc_singular`` stay the per-sample
-DMC's.  A gyro that does not cover every attitude row falls back to the DMC
+std_yaw`` [rad], and, with ``sigma_mag_bias > 0`` (the default), the
+magnetometer's hard-iron bias estimated along, ``bias_mag_x bias_mag_y
+bias_mag_z`` with ``std_bias_mag_*`` [the magnetometer's unit; one value
+repeated on every attitude row], and the accelerometer's, ``bias_acc_*`` with
+``std_bias_acc_*`` [m/s^2] (``sigma_acc_bias > 0``, the default); ``quest_loss`` and ``dmc_singular`` stay the
+per-sample DMC's.  A gyro that does not cover every attitude row falls back to the DMC
 alone, with a warning.
 
 Frames: local vectors are rotated to NED by :func:`sportfusion.core.rotations.local_to_ned`
@@ -102,6 +106,8 @@ def dmc_session(
     sigma_mag: float = 0.02,
     gyro_noise: float = 3e-4,
     bias_walk: float = 2e-4,
+    sigma_mag_bias: float = 0.5,
+    sigma_acc_bias: float = 0.05,
 ) -> DMCSessionResult:
     """Attitude per IMU row of a session from a DMC and the GNSS acceleration.
 
@@ -143,6 +149,13 @@ def dmc_session(
     sigma_mag : 1-sigma of the field direction [rad] (gyro path).
     gyro_noise : gyro white-noise density [rad/s/sqrt(Hz)]; bias_walk : bias random walk
         [rad/s/sqrt(s)] (gyro path).
+    sigma_mag_bias : prior 1-sigma per axis of the magnetometer's hard-iron bias [uT] (gyro path), estimated
+        along; 0: not estimated.  A magnetometer in another unit (``mag_unit`` not ``uT``, e.g. ``1`` when
+        normalised) gets it scaled by its median norm over the model's intensity (50 uT assumed without a
+        model), and the estimate ``bias_mag_*`` is in that unit (``info["bias_mag_unit"]``).
+    sigma_acc_bias : prior 1-sigma per axis of the accelerometer's bias [m/s^2] (gyro path), estimated along
+        (``bias_acc_*``) where there is a GNSS acceleration (``acc_kin``; without one the specific force is
+        referenced on quiet samples only, which leave its bias unobservable); 0: not estimated.
     """
     t = np.asarray(t, float)
     n = t.size
@@ -265,6 +278,19 @@ def dmc_session(
         else:
             if gyro_samples == "instant":
                 w_b = interval_mean_rates(w_b)
+            s_bias = float(sigma_mag_bias)
+            bias_unit = mag_unit or "uT"
+            if s_bias > 0 and bias_unit != "uT":
+                # the prior [uT] in the magnetometer's unit: its median norm stands for the field's intensity
+                if model is not None:
+                    intensity = float(np.linalg.norm(model))
+                else:
+                    intensity = 50.0
+                    warnings.append(
+                        f"magnetometer in {bias_unit!r}, no magnetic model for the field's intensity: the hard-iron "
+                        "prior --mag-bias-sigma is scaled assuming 50 uT"
+                    )
+                s_bias *= float(np.median(np.linalg.norm(m_b, axis=1))) / intensity
             try:
                 res = gyro_dmc_attitude(
                     t[rows],
@@ -279,6 +305,10 @@ def dmc_session(
                     sigma_mag=sigma_mag,
                     gyro_noise=gyro_noise,
                     bias_walk=bias_walk,
+                    sigma_mag_bias=s_bias,
+                    # without a GNSS acceleration the specific force's only references are quiet samples (standing,
+                    # one orientation): its bias is not observable there and would trade against the hard iron
+                    sigma_acc_bias=sigma_acc_bias if (~low_dyn).any() else 0.0,
                     lat_deg=site[0] if site is not None else None,
                     coriolis=cor,
                     # f = -g is a reference only where the sensor is quiet; elsewhere the gyro carries the tilt
@@ -288,6 +318,11 @@ def dmc_session(
                 raise InputError(f"the gyro-stabilised attitude failed ({exc}); --no-gyro gives the DMC alone") from exc
             method = "gyro+dmc"
             info["iterations"] = res.iterations
+            if res.bias_mag is not None:
+                info["bias_mag"] = [float(v) for v in res.bias_mag]
+                info["bias_mag_unit"] = bias_unit
+            if res.bias_acc is not None:
+                info["bias_acc"] = [float(v) for v in res.bias_acc]
             if not res.converged:
                 warnings.append(
                     f"the gyro-stabilised attitude did not converge in {res.iterations} iterations: it may be off "
@@ -346,6 +381,14 @@ def dmc_session(
             put(f"bias_gyr_{a}", res.bias_gyr[:, i])
         for i, name in enumerate(("roll", "pitch", "yaw")):
             put(f"std_{name}", res.std_rpy[:, i])
+    if res.bias_mag is not None and res.std_bias_mag is not None:
+        for i, a in enumerate("xyz"):
+            put(f"bias_mag_{a}", np.full(rows.size, res.bias_mag[i]))
+            put(f"std_bias_mag_{a}", np.full(rows.size, res.std_bias_mag[i]))
+    if res.bias_acc is not None and res.std_bias_acc is not None:
+        for i, a in enumerate("xyz"):
+            put(f"bias_acc_{a}", np.full(rows.size, res.bias_acc[i]))
+            put(f"std_bias_acc_{a}", np.full(rows.size, res.std_bias_acc[i]))
     bad = np.zeros(n, bool)
     bad[rows] = flag
     cols["mag_implausible"] = pa.array(bad, mask=~mask)
