@@ -6,13 +6,17 @@ For every seed ``simulate boulder`` generates a trial (default settings: 100 Hz,
 off-centre and wall grips, grip adjustments, a down-climb), ``detect-events --kind grips``
 finds the grips and ``pf-holds`` (the same library call, :func:`track_holds`) runs the
 transition estimator, the particle filter and the smoother (backward simulation,
-with the FFBSm smoother on the same filter beside it).  Errors are the 3-D
+with the FFBSm smoother on the same filter beside it).  The filter keeps one stratum of
+particles per start hold until their tracks meet on a hold (``PFParams.separate_starts``);
+"wrong start hold" compares the smoother's hold at the first detected grip with the
+simulated start hold.  Errors are the 3-D
 distances to the true sensor position at every IMU sample from the first detected grip to
 the end of the trial, pooled over all trials (the paper pools its sparse optical truth).
 Transition-only integrates the transition velocities from the true position at the first
 grip (as the paper's implementation starts it at the first optical-truth sample).
 
-The seeds (1000-1049) are disjoint from the ones the PF defaults were chosen on (0-23).
+The seeds (1000-1049) are disjoint from the ones the PF defaults were chosen on (0-23)
+and the start-hold strata on (0-99, 2000-2199).
 
 Run: ``python bench/bench_climbing.py [TRIALS]`` (accuracy on every CPU core; the speed
 figure on one core, BLAS limited to one thread).

@@ -87,8 +87,9 @@ def main(
     """Estimate one hand's position on a climbing wall (climbing paper §III):
     the whole trial as one least-squares problem with zero-velocity updates at the
     detected grips gives transition velocities and their covariance; a particle
-    filter over position and yaw error, started at the route's two start holds,
-    matches every grip against the route's holds (all holds of the wall after the
+    filter over position and yaw error, started at the route's two start holds
+    (one stratum of particles each, kept until their tracks meet on a hold; the one
+    with the larger evidence goes on), matches every grip against the route's holds (all holds of the wall after the
     descent time) and a particle smoother refines it. Adds x y z [m] and vx vy vz
     [m/s] in the hold map's frame, hold_id at grips (-1: elsewhere) and
     cluster_prob. Needs the columns grip (detect-events --kind grips) and

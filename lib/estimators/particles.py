@@ -34,7 +34,7 @@ def effective_size(w: np.ndarray) -> float:
     return float(1.0 / (w @ w))
 
 
-def systematic_resample(w: np.ndarray, u0: float) -> np.ndarray:
+def systematic_resample(w: np.ndarray, u0: float, count: int | None = None) -> np.ndarray:
     """Indices of the particles kept by systematic resampling.
 
     Parameters
@@ -42,15 +42,18 @@ def systematic_resample(w: np.ndarray, u0: float) -> np.ndarray:
     w : ndarray (m,)
         Normalised weights.
     u0 : float
-        One uniform draw in [0, 1): the offset of the ``m`` evenly spaced pointers.
+        One uniform draw in [0, 1): the offset of the evenly spaced pointers.
+    count : int, optional
+        Number of particles drawn (default ``m``).
 
     Returns
     -------
-    ndarray of int (m,)
-        Particle ``i`` appears about ``m w_i`` times (never less than ``floor(m w_i)``).
+    ndarray of int (count,)
+        Particle ``i`` appears about ``count w_i`` times (never less than ``floor(count w_i)``).
     """
     m = w.size
-    u = (u0 + np.arange(m)) / m
+    count = m if count is None else count
+    u = (u0 + np.arange(count)) / count
     c = np.cumsum(w)
     c[-1] = 1.0
     return np.minimum(np.searchsorted(c, u), m - 1)
