@@ -489,6 +489,7 @@ def session_inputs(
 def _moving_std(x: np.ndarray, half: int) -> np.ndarray:
     """Per-column standard deviation over the centred window of ``2 half + 1`` samples (shorter at the ends)."""
     n = x.shape[0]
+    x = x - x.mean(axis=0)  # centred: the running sums of squares stay small (no cancellation)
     c1 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)))
     c2 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x * x, axis=0)))
     lo = np.maximum(np.arange(n) - half, 0)
