@@ -8,6 +8,7 @@ from scipy.stats import multivariate_normal
 
 from sportfusion.climbing import particles as pf
 from sportfusion.climbing.particles import HoldModel, PFParams, grip_log_likelihood, hold_log_likelihood
+from sportfusion.core.errors import InputError
 from sportfusion.estimators.particles import systematic_resample
 
 MODEL = HoldModel(radius=0.1, sigma=0.05, elsewhere_sigmas=3.0)
@@ -185,6 +186,31 @@ def test_grip_likelihood_in_pieces_equals_hold_by_hold():
     assert np.array_equal(lab[at_hold], ids[each.argmax(axis=0)][at_hold]) and (lab[~at_hold] == -1).all()
 
 
+def test_tempered_grip_counts_the_same_whatever_its_length():
+    """grip_count c: the weights of one grip's samples sum to c (a grip of 3 samples and one of 300 count
+    alike); None: every grip sample weighs 1 (the paper).  Zero outside the grips."""
+    grip = np.zeros(400, dtype=bool)
+    grip[2:5] = grip[10:310] = grip[399:] = True
+    w = pf.grip_weights(grip, 2.0)
+    assert w[~grip].sum() == 0.0
+    for sl in (slice(2, 5), slice(10, 310), slice(399, 400)):
+        assert np.isclose(w[sl].sum(), 2.0) and np.ptp(w[sl]) < 1e-15
+    assert np.array_equal(pf.grip_weights(grip, None), grip.astype(float))
+    with pytest.raises(InputError):
+        pf.grip_weights(grip, 0.0)
+
+
+def test_tempered_filter_is_the_paper_filter_with_log_likelihoods_scaled():
+    """With one grip sample per grip, grip_count=1 is the paper's filter (the weights are the same)."""
+    t, p, v, cov, grip, route, start = _ladder()
+    single = grip & ~np.concatenate(([False], grip[:-1]))  # only each grip's first sample
+    a, b = (
+        pf.run_particle_filter(t, v, cov, single, route, start, UP, params=PFParams(grip_count=c), seed=1)
+        for c in (None, 1.0)
+    )
+    assert np.allclose(a.pos, b.pos, equal_nan=True) and np.allclose(a.smooth_pos, b.smooth_pos, equal_nan=True)
+
+
 def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     """The filter one step at a time (as before it ran over blocks): the reference for the block form."""
     from sportfusion.estimators.particles import reweight
@@ -204,6 +230,7 @@ def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0:, None]
     u_res = rng.random(n)
     horiz = model.step - model.ustep
+    temper = pf.grip_weights(grip, params.grip_count)  # 1 per grip sample, or count / samples in the grip
     out = np.full((n, 3), np.nan)
     hist_w = np.zeros((n, m))
     for k in range(k0, n):
@@ -213,7 +240,7 @@ def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
             psi = psi + add_psi[j - k0]
         if grip[k]:
             ll, lab = grip_log_likelihood(pos, r_pos, r_ids, params.hold)
-            w = reweight(w, ll)
+            w = reweight(w, ll * temper[k])
         hist_w[k] = w
         sums = np.bincount(lab + 1, weights=w)
         sel = lab == int(np.argmax(sums)) - 1
@@ -224,15 +251,16 @@ def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     return out, hist_w
 
 
-def test_block_filter_equals_the_step_by_step_filter():
+@pytest.mark.parametrize("grip_count", [None, 2.0])
+def test_block_filter_equals_the_step_by_step_filter(grip_count):
     t, p, v, cov, grip, route, start = _ladder()
     grip = grip.copy()
     grip[:3] = False  # the filter starts at the first grip
     # resampling often: many blocks end early; one particle set (the start holds compete)
-    params = PFParams(particles=60, ess_fraction=0.97, separate_starts=False)
+    params = PFParams(particles=60, ess_fraction=0.97, separate_starts=False, grip_count=grip_count)
     res = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=2, smooth=False)
     ref, _ = _filter_step_by_step(t, v, cov, grip, route, start, params, seed=2)
-    assert res.resamples >= 3
+    assert res.resamples >= (3 if grip_count is None else 1)  # tempered: the weights drop less
     assert np.allclose(res.pos[3:], ref[3:], rtol=0, atol=1e-9)
     assert np.isnan(res.pos[:3]).all()
 
@@ -258,6 +286,7 @@ def _stratified_step_by_step(t, v, cov, grip, route, start, params, seed):
     add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0:, None]
     u_res = rng.random(n)
     horiz = model.step - model.ustep
+    temper = pf.grip_weights(grip, params.grip_count)  # 1 per grip sample, or count / samples in the grip
     out = np.full((n, 3), np.nan)
     strata = [np.flatnonzero(which == h) for h in range(s_ids.size)]
     merged_at = -1
@@ -268,7 +297,7 @@ def _stratified_step_by_step(t, v, cov, grip, route, start, params, seed):
             psi = psi + add_psi[j - k0]
         if grip[k]:
             ll, lab = grip_log_likelihood(pos, r_pos, r_ids, params.hold)
-            lw = lw + ll
+            lw = lw + ll * temper[k]
         ev = np.array([logsumexp(lw[s]) for s in strata])
         within = [np.exp(lw[s] - e) for s, e in zip(strata, ev, strict=True)]  # normalised in each stratum
         w = np.empty(m)
@@ -299,8 +328,9 @@ def _stratified_step_by_step(t, v, cov, grip, route, start, params, seed):
     return out, merged_at
 
 
+@pytest.mark.parametrize("grip_count", [None, 2.0])
 @pytest.mark.parametrize("second_start_x", [0.5, 0.12])
-def test_block_filter_with_start_strata_equals_the_step_by_step_filter(second_start_x):
+def test_block_filter_with_start_strata_equals_the_step_by_step_filter(second_start_x, grip_count):
     """The strata's bookkeeping in blocks (evidence, resampling within a stratum, the merge) against the
     plain per-step form; 0.5: the strata never meet, 0.12: they meet at hold 2 and merge."""
     t, p, v, cov, grip, (ids, centres), _ = _ladder()
@@ -309,10 +339,14 @@ def test_block_filter_with_start_strata_equals_the_step_by_step_filter(second_st
     route, start = (ids, centres), (ids[:2], centres[:2])
     grip = grip.copy()
     grip[:3] = False
-    params = PFParams(particles=60, ess_fraction=0.97)  # resampling often
+    params = PFParams(particles=60, ess_fraction=0.97, grip_count=grip_count)  # resampling often
     res = pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=2, smooth=False)
     ref, merged_at = _stratified_step_by_step(t, v, cov, grip, route, start, params, seed=2)
-    assert res.resamples >= 2 and res.merged_at == merged_at and (merged_at > 0) == (second_start_x < 0.3)
+    assert (
+        res.resamples >= (2 if grip_count is None else 1)
+        and res.merged_at == merged_at
+        and (merged_at > 0) == (second_start_x < 0.3)
+    )
     assert np.allclose(res.pos[3:], ref[3:], rtol=0, atol=1e-9)
 
 
