@@ -28,6 +28,7 @@ import pyarrow as pa
 from sportfusion.climbing import _so3
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.windows import window_mean_std
 
 IMU_COLUMNS = ("gyr_x", "gyr_y", "gyr_z")
 DEV_Q = ("dev_q0", "dev_q1", "dev_q2", "dev_q3")
@@ -66,18 +67,10 @@ class GripParams:
 
 def _window_stats(x: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Centre indices k, window means (m, 3) and summed per-axis standard deviations (m,)."""
-    n = x.shape[0]
     x = np.where(np.isfinite(x), x, 0.0)
-    off = x.mean(axis=0)
-    x = x - off  # conditioning of the running sums
-    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(x, axis=0)])
-    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(x * x, axis=0)])
-    k = np.arange(half, n - half)
-    lo, hi = k - half, k + half  # window [k - half, k + half)
-    m = (hi - lo)[:, None]
-    mean = (c1[hi] - c1[lo]) / m
-    var = np.maximum((c2[hi] - c2[lo]) / m - mean**2, 0.0)
-    return k, mean + off, np.sqrt(var).sum(axis=1)
+    k = np.arange(half, x.shape[0] - half)
+    mean, std = window_mean_std(x, k - half, k + half)  # window [k - half, k + half)
+    return k, mean, std.sum(axis=1)
 
 
 def detect_grips(

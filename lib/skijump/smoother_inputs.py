@@ -33,6 +33,7 @@ from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.magfield import reference_field
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
+from sportfusion.core.windows import window_mean_std
 from sportfusion.skijump.events import gnss_speed
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.saturation import clipped_steps
@@ -486,19 +487,6 @@ def session_inputs(
     return inp, frame
 
 
-def _moving_std(x: np.ndarray, half: int) -> np.ndarray:
-    """Per-column standard deviation over the centred window of ``2 half + 1`` samples (shorter at the ends)."""
-    n = x.shape[0]
-    x = x - x.mean(axis=0)  # centred: the running sums of squares stay small (no cancellation)
-    c1 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x, axis=0)))
-    c2 = np.concatenate((np.zeros((1, x.shape[1])), np.cumsum(x * x, axis=0)))
-    lo = np.maximum(np.arange(n) - half, 0)
-    hi = np.minimum(np.arange(n) + half + 1, n)
-    cnt = (hi - lo)[:, None]
-    mean = (c1[hi] - c1[lo]) / cnt
-    return np.sqrt(np.maximum((c2[hi] - c2[lo]) / cnt - mean * mean, 0.0))
-
-
 def still_steps(
     t: np.ndarray, u: np.ndarray, speed_t: np.ndarray, speed: np.ndarray, cfg: SmootherConfig
 ) -> np.ndarray:
@@ -534,7 +522,8 @@ def still_steps(
             still[a:b] = False
             continue
         half = max(1, int(round(0.5 * cfg.zupt_window / np.median(np.diff(t[a:b])))))
-        sd = _moving_std(u[a:b], half)
+        k = np.arange(b - a)
+        sd = window_mean_std(u[a:b], np.maximum(k - half, 0), np.minimum(k + half + 1, b - a))[1]  # centred
         still[a:b] &= (sd[:, 0:3].max(axis=1) < cfg.zupt_gyr) & (sd[:, 3:6].max(axis=1) < cfg.zupt_acc)
     # drop runs shorter than zupt_min
     edges = np.flatnonzero(np.diff(np.concatenate(([0], still.astype(np.int8), [0]))))
