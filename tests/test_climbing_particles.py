@@ -211,10 +211,9 @@ def test_tempered_filter_is_the_paper_filter_with_log_likelihoods_scaled():
     assert np.allclose(a.pos, b.pos, equal_nan=True) and np.allclose(a.smooth_pos, b.smooth_pos, equal_nan=True)
 
 
-def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
-    """The filter one step at a time (as before it ran over blocks): the reference for the block form."""
-    from sportfusion.estimators.particles import reweight
-
+def _start(t, v, cov, grip, route, start, params, seed):
+    """What both step-by-step references draw first, in the filter's order: the particles at the first grip,
+    the process noise of every step, the resampling uniforms, and the grip weights."""
     rng = np.random.default_rng(seed)
     m, n = params.particles, t.size
     k0 = int(np.argmax(grip))
@@ -224,13 +223,23 @@ def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     pos = s_pos[which] + rng.normal(0.0, params.start_sigma, (m, 3))
     psi = rng.normal(0.0, params.start_yaw_sigma, m)
     lab = s_ids[which]
-    w = np.full(m, 1.0 / m)
     nk = n - 1 - k0
     add_pos = rng.standard_normal((nk, m, 3)) @ np.swapaxes(model.chol[k0 : n - 1], 1, 2) + model.ustep[k0:, None]
     add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0:, None]
     u_res = rng.random(n)
     horiz = model.step - model.ustep
     temper = pf.grip_weights(grip, params.grip_count)  # 1 per grip sample, or count / samples in the grip
+    return m, n, k0, model, r_ids, r_pos, s_ids, which, pos, psi, lab, add_pos, add_psi, u_res, horiz, temper
+
+
+def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
+    """The filter one step at a time (as before it ran over blocks): the reference for the block form."""
+    from sportfusion.estimators.particles import reweight
+
+    m, n, k0, model, r_ids, r_pos, s_ids, which, pos, psi, lab, add_pos, add_psi, u_res, horiz, temper = _start(
+        t, v, cov, grip, route, start, params, seed
+    )
+    w = np.full(m, 1.0 / m)
     out = np.full((n, 3), np.nan)
     hist_w = np.zeros((n, m))
     for k in range(k0, n):
@@ -271,22 +280,10 @@ def _stratified_step_by_step(t, v, cov, grip, route, start, params, seed):
     stratum's most likely cluster is the same hold, the stratum of the larger total takes all particles."""
     from scipy.special import logsumexp
 
-    rng = np.random.default_rng(seed)
-    m, n = params.particles, t.size
-    k0 = int(np.argmax(grip))
-    model = pf._Model(t, v, cov, UP, params.yaw_psd)
-    (r_ids, r_pos), (s_ids, s_pos) = route, start
-    which = np.arange(m) % s_ids.size
-    pos = s_pos[which] + rng.normal(0.0, params.start_sigma, (m, 3))
-    psi = rng.normal(0.0, params.start_yaw_sigma, m)
-    lab = s_ids[which]
+    m, n, k0, model, r_ids, r_pos, s_ids, which, pos, psi, lab, add_pos, add_psi, u_res, horiz, temper = _start(
+        t, v, cov, grip, route, start, params, seed
+    )
     lw = np.zeros(m)
-    nk = n - 1 - k0
-    add_pos = rng.standard_normal((nk, m, 3)) @ np.swapaxes(model.chol[k0 : n - 1], 1, 2) + model.ustep[k0:, None]
-    add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0:, None]
-    u_res = rng.random(n)
-    horiz = model.step - model.ustep
-    temper = pf.grip_weights(grip, params.grip_count)  # 1 per grip sample, or count / samples in the grip
     out = np.full((n, 3), np.nan)
     strata = [np.flatnonzero(which == h) for h in range(s_ids.size)]
     merged_at = -1
