@@ -12,24 +12,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from sportfusion.core.rotations import dcm_from_quat, quat_from_dcm
+from sportfusion.core.rotations import dcm_from_quat, quat_from_dcm, quat_from_rotvec
 from sportfusion.core.rotations import skew as hat
 
 _SMALL = 1e-5  # rad: below this the Jacobians use their series expansions
 
 
-def _quat_from_rotvec(phi: np.ndarray) -> np.ndarray:
-    th = np.linalg.norm(phi, axis=-1)
-    half = 0.5 * th
-    # sin(th/2)/th, with its series below 1e-4 rad
-    k = np.where(th < 1e-4, 0.5 - th**2 / 48.0, np.sin(half) / np.where(th < 1e-4, 1.0, th))
-    return np.concatenate((np.cos(half)[..., None], k[..., None] * phi), axis=-1)
-
-
 def exp(phi: np.ndarray) -> np.ndarray:
     """Rotation matrices from rotation vectors ``phi`` [rad] (..., 3) -> (..., 3, 3)."""
     phi = np.asarray(phi, dtype=np.float64)
-    return matrix_from_quat(_quat_from_rotvec(phi))
+    return matrix_from_quat(quat_from_rotvec(phi))
 
 
 def log(r: np.ndarray) -> np.ndarray:

@@ -24,7 +24,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.rotations import dcm_from_quat, quat_from_euler, quat_multiply, quat_normalize
+from sportfusion.core.rotations import (
+    dcm_from_quat,
+    integrate_body_rates,
+    interval_mean_rates,
+    quat_from_euler,
+    quat_from_rotvec,
+    quat_multiply,
+)
 
 
 @dataclass
@@ -85,35 +92,6 @@ def _level(f: np.ndarray) -> tuple[float, float]:
     return roll, pitch
 
 
-def _integrate(q0: np.ndarray, w: np.ndarray, dt: np.ndarray) -> np.ndarray:
-    """Strap-down: ``q_{k+1} = q_k ⊗ exp(w_k dt_k / 2)`` (body rates, q rotates body -> global)."""
-    ang = np.linalg.norm(w, axis=1) * dt
-    half = 0.5 * ang
-    axis = w / np.maximum(np.linalg.norm(w, axis=1), 1e-300)[:, None]
-    dq = np.column_stack([np.cos(half), axis * np.sin(half)[:, None]])
-    q = np.empty((w.shape[0] + 1, 4))
-    q[0] = q0
-    a = q0.copy()
-    for k in range(w.shape[0]):
-        b = dq[k]
-        a = np.array(
-            [
-                a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-                a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-                a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-                a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
-            ]
-        )
-        q[k + 1] = a
-    return quat_normalize(q)
-
-
-def _rotvec_quat(v: np.ndarray) -> np.ndarray:
-    ang = np.linalg.norm(v, axis=-1, keepdims=True)
-    axis = v / np.maximum(ang, 1e-300)
-    return np.concatenate([np.cos(ang / 2), axis * np.sin(ang / 2)], axis=-1)
-
-
 def _tilt(q: np.ndarray, acc: np.ndarray, win: tuple[int, int]) -> np.ndarray:
     """Rotation vector [rad] (J frame) taking the mean strap-down 'down' direction over a static window
     onto the true down (0, 0, 1)."""
@@ -155,14 +133,12 @@ def strapdown(t: np.ndarray, acc: np.ndarray, gyr: np.ndarray, static: Static) -
     w = gyr - (b0 + (b1 - b0) * frac)
     roll, pitch = _level(acc[s0:s1].mean(axis=0))
     q_start = quat_from_euler(roll, pitch, 0.0)  # q_BJ is the Hamilton quaternion of body -> J
-    dt = np.diff(t)
-    wm = 0.5 * (w[1:] + w[:-1])
-    q = _integrate(q_start, wm, dt)  # body -> J
+    q = integrate_body_rates(q_start, t, interval_mean_rates(w))  # body -> J, trapezoid rates
     # tilt at the start (the mean over the posture, not its first sample) and left at the finish
-    q = quat_multiply(_rotvec_quat(_tilt(q, acc, static.start)), q)
+    q = quat_multiply(quat_from_rotvec(_tilt(q, acc, static.start)), q)
     rv = _tilt(q, acc, static.finish)
     ramp = np.clip((t - tb0) / max(tb1 - tb0, 1e-9), 0, 1)[:, None]
-    q = quat_multiply(_rotvec_quat(rv[None, :] * ramp), q)  # rotate the J-side of body->J
+    q = quat_multiply(quat_from_rotvec(rv[None, :] * ramp), q)  # rotate the J-side of body->J
     return q
 
 
