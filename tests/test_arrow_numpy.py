@@ -1,4 +1,4 @@
-"""Arrow float columns read into numpy without pyarrow.compute: nulls, offsets, chunks, float32."""
+"""Arrow float and bool columns read into numpy without pyarrow.compute: nulls, offsets, chunks, float32."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from sportfusion.core.schema import float_values
+from sportfusion.core.schema import flags, float_values
 from sportfusion.core.session import drop_impossible, nonfinite_to_null
 
 
@@ -23,6 +23,24 @@ def test_float_values_nulls_offsets_and_chunks(typ: pa.DataType) -> None:
             assert not ok or (np.isnan(v) and np.isnan(w)) or v == w
     vals, valid = float_values(pa.chunked_array([pa.array([1.0, 2.0])]))
     assert valid is None and vals.tolist() == [1.0, 2.0]
+
+
+def test_flags_nulls_as_false_with_offsets_and_chunks() -> None:
+    raw = [True, None, False, True, True, None, False, True, True, True, None]
+    arr = pa.array(raw, type=pa.bool_())
+    for col in (
+        arr,
+        arr.slice(3, 7),
+        pa.chunked_array([arr.slice(0, 5), arr.slice(5)]),
+        pa.chunked_array([arr.slice(1, 9)]),
+        pa.array([True, False] * 9),
+        pa.array([], type=pa.bool_()),
+    ):
+        want = [bool(v) for v in col.to_pylist()]  # None -> False
+        got = flags(pa.table({"grip": col}), "grip")
+        assert got.dtype == bool and got.tolist() == want
+    with pytest.raises(TypeError):
+        flags(pa.table({"grip": [1.0]}), "grip")
 
 
 def test_drop_impossible_counts_new_nulls_only_and_keeps_old_ones() -> None:

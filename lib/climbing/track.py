@@ -114,10 +114,9 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     if rows.sum() < 3:
         raise InputError(f"only {int(rows.sum())} IMU samples; expected a trial of many samples")
     t = schema.floats(table, "t")[rows]
-    grip = np.asarray(table.column("grip").fill_null(False).to_numpy(zero_copy_only=False), dtype=bool)[rows]
+    grip = schema.flags(table, "grip")[rows]
     if "imu_saturated" in table.column_names:
-        sat = np.asarray(table.column("imu_saturated").fill_null(False).to_numpy(zero_copy_only=False), dtype=bool)
-        sat = sat[rows]
+        sat = schema.flags(table, "imu_saturated")[rows]
     else:
         sat = range_violations(acc[rows], gyr[rows], GripParams())
     mag = _normalised_mag(table, meta, rows)
