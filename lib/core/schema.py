@@ -325,7 +325,6 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     return np.asarray(col.to_numpy(), dtype=np.float64)
 
 
-
 def flags(table: pa.Table, name: str) -> np.ndarray:
     """A boolean column as a numpy bool array (a copy), nulls as False, without pyarrow.compute.
 
@@ -347,6 +346,7 @@ def flags(table: pa.Table, name: str) -> np.ndarray:
     if arr.null_count and validity is not None:
         out &= bits(validity)
     return out
+
 
 # rts-smooth (skijump ERTS smoother): constraint residuals at the smoothed state, forward-only estimates
 register("c_q", F64, "1", "quaternion norm constraint |q| - 1 at the smoothed state (skijump eq 51)")
