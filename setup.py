@@ -2,7 +2,8 @@
 
 * ``sportfusion.estimators._banded_c``: the smoothing spline's banded solve, selected inverse,
   evaluation and arc length (spline-smooth);
-* ``sportfusion.skijump._ski_c``: rts-smooth's EKF + RTS loop.
+* ``sportfusion.skijump._ski_c``: rts-smooth's EKF + RTS loop;
+* ``sportfusion.climbing._pf_c``: pf-holds' particle filter and backward-simulation paths.
 
 Each imports in about a millisecond where numba's import and first kernel load cost 0.7-1 s of CPU
 (docs/speed.md).  Both are optional: without a C compiler and Python's headers the install goes on and
@@ -16,5 +17,6 @@ setup(
     ext_modules=[
         Extension("sportfusion.estimators._banded_c", sources=["lib/estimators/_banded_c.c"], optional=True),
         Extension("sportfusion.skijump._ski_c", sources=["lib/skijump/_ski_c.c"], optional=True),
+        Extension("sportfusion.climbing._pf_c", sources=["lib/climbing/_pf_c.c"], optional=True),
     ]
 )

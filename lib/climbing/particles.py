@@ -80,9 +80,29 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.estimators.particles import backward_simulation, backward_simulation_gaussian, systematic_resample
+from sportfusion.estimators.particles import (
+    backward_draws,
+    backward_simulation,
+    backward_simulation_gaussian,
+    path_weights,
+    systematic_resample,
+)
 
 ELSEWHERE = -1
+
+_UNSET = object()
+_NATIVE: object = _UNSET
+
+
+def _native():  # noqa: ANN202
+    """The C extension (``_pf_c.c``: the forward pass and the backward-simulation paths), or None when it is
+    not built or ``SPORTFUSION_NATIVE=0``; the numpy code below is its reference."""
+    global _NATIVE
+    if _NATIVE is _UNSET:
+        from sportfusion.core.native import load_extension
+
+        _NATIVE = load_extension("sportfusion.climbing._pf_c")
+    return _NATIVE
 
 
 @dataclass(frozen=True)
@@ -434,91 +454,113 @@ def run_particle_filter(
     # for resampling (or where the start hypotheses merge); the block ends there and the next starts from
     # the resampled particles.  A block spans a number of grips: few after a resampling (the next often
     # follows soon), more and more after none.
-    k, want = k0, 2
-    while k < n:
-        nxt = np.searchsorted(grips, k) + want - 1  # the block's last grip
-        e = min(n, k + 2048, int(grips[nxt]) + 1 if nxt < grips.size else n)
-        b0 = k - 1 if k > k0 else k0  # the particles carried in are those of step b0 (after resampling)
-        js = slice(b0 - k0, e - 1 - k0)
-        psi_rows = np.cumsum(np.concatenate((psi[None], add_psi[js])), axis=0)
-        inc = add_pos[js] + horiz[b0 : e - 1, :, None] * np.cos(psi_rows[:-1])[:, None, :]
-        inc += model.kstep[b0 : e - 1, :, None] * np.sin(psi_rows[:-1])[:, None, :]
-        pos_rows = np.cumsum(np.concatenate((pos[None], inc)), axis=0)
-        hist_pos[k:e] = np.swapaxes(pos_rows[k - b0 :], 1, 2)  # steps k..e-1 (those after a resampling are redone)
-        hist_psi[k:e] = psi_rows[k - b0 :]
-        g = grip[k:e]
-        gi = np.flatnonzero(g)
-        ll = np.empty((gi.size, m))
-        lg = np.empty((gi.size + 1, m), dtype=np.int64)
-        lg[0] = lab
-        for after, centres, codes in ((False, r_pos, r_code), (True, w_pos, w_code)):
-            sel = late[k:e][gi] == after
-            if sel.any():
-                lr, cr = grip_log_likelihood(hist_pos[k + gi[sel]].reshape(-1, 3), centres, codes, p.hold)
-                ll[sel] = lr.reshape(-1, m)
-                lg[1:][sel] = np.where(cr == ELSEWHERE, nowhere, cr).reshape(-1, m)
-        if temper is not None:
-            ll *= temper[k + gi][:, None]
-        lws = np.cumsum(np.concatenate((lw[None], ll)), axis=0)  # before the block's grips, after each
-        top = lws.max(axis=1, keepdims=True)
-        lws -= top
-        lsum, ess = _strata_sums(lws, strata)  # per stratum and row
-        log_sum = np.logaddexp.reduce(lsum, axis=0)  # of all weights, per row (relative to the row's largest)
-        if len(strata) > 1:
-            # each hypothesis's log evidence after every row: its weights' total (resampling keeps it)
-            hyp_ev = start_ev[:, None] + (lsum + top.T) - (lsum[:, :1] + top[0])
-            hyp_p = np.exp(hyp_ev - hyp_ev.max(axis=0))
-            hyp_p /= hyp_p.sum(axis=0)
-            wsw = np.empty_like(lws)  # normalised within each stratum
-            for h, st in enumerate(strata):
-                wsw[:, st] = np.exp(lws[:, st] - lsum[h][:, None])
-            ws = wsw * hyp_p.T[:, which]  # between the strata by hyp_p
-        else:
-            ws = wsw = np.exp(lws - log_sum[:, None])
-        low = (ess[:, 1:] < p.ess_fraction * counts[:, None]).any(axis=0)
-        stop_row = int(np.argmax(low)) + 1 if low.any() else gi.size + 1  # first row (1 + grip) to act on
-        merge = False
-        if len(strata) > 1:
-            ends = np.flatnonzero(grip_end[k + gi[:stop_row]]) + 1
-            same = _same_best_hold(wsw[ends], lg[ends], strata, table.size, nowhere)
-            if same.any():
-                stop_row, merge = int(ends[np.argmax(same)]), True
-        stop = e if stop_row > gi.size else k + int(gi[stop_row - 1]) + 1  # steps k..stop-1 are final
-        rows = slice(k, stop)
-        at = np.cumsum(g[: stop - k])  # per step: the block's grips so far = its row of ws, lg
-        hist_w[rows], hist_lab[rows] = wsw[at], lg[at]  # split: within the strata (the smoother picks one)
-        out_pos[rows], code, out_prob[rows], out_yaw[rows] = _cluster_rows(
-            ws[at], hist_lab[rows], hist_pos[rows], hist_psi[rows], table.size
-        )
-        out_lab[rows] = table[code]
-        last, r = stop - 1, int(at[-1])
-        tot = top[:, 0] + log_sum
-        out_ev[rows] = log_z + tot[at] - tot[0]
-        log_z = float(out_ev[last])
-        pos, psi, lab, lw = pos_rows[last - b0], hist_psi[last], hist_lab[last], lws[r]
-        if len(strata) > 1:
-            start_ev = hyp_ev[:, r]
-        if merge or stop_row <= gi.size:
-            idx = np.arange(m)
-            lw = lw.copy()
-            if merge:  # one track: the hypothesis with the larger evidence takes all particles
-                best = strata[int(np.argmax(hyp_ev[:, r]))]
-                idx = best[systematic_resample(_normalised(lws[r, best]), u_res[last], m)]
-                strata, counts, lw[:], merged_at = [slice(None)], np.array([m]), 0.0, last
-            else:
+    pf_c = _native()
+    if pf_c is not None:  # the same loop, step by step in C (the numpy blocks below are its reference)
+        out_code = np.empty(n, dtype=np.int64)
+        lab0 = np.searchsorted(table, s_ids[which]).astype(np.int64)
+        merged_at, resamples = pf_c.forward(
+            n, m, k0, table.size, nowhere, len(strata), r_ids.size, w_ids.size,
+            p.hold.radius, p.hold.sigma, p.hold.log_peak, p.hold.log_elsewhere, p.ess_fraction,
+            np.ascontiguousarray(horiz) if n > 1 else np.zeros(3), np.ascontiguousarray(model.kstep) if n > 1 else np.zeros(3),
+            add_pos, np.ascontiguousarray(add_psi), u_res, grip.astype(np.int64), grip_end.astype(np.int64),
+            late.astype(np.int64), None if temper is None else np.ascontiguousarray(temper, dtype=np.float64),
+            np.ascontiguousarray(r_pos, dtype=np.float64), r_code.astype(np.int64),
+            np.ascontiguousarray(w_pos, dtype=np.float64), w_code.astype(np.int64),
+            np.ascontiguousarray(pos.T), np.ascontiguousarray(psi), lab0, which.astype(np.int64),
+            hist, hist_w, hist_lab, anc if n > 1 else np.zeros(m, dtype=np.int64),
+            out_pos, out_code, out_prob, out_yaw, out_ev, start_ev if len(strata) > 1 else np.zeros(1),
+            np.empty(11 * m + table.size * (len(strata) + 1) + 5 * len(strata)),
+            np.empty(6 * m + len(strata), dtype=np.int64),
+        )  # fmt: skip
+        out_lab[k0:] = table[out_code[k0:]]
+        if len(strata) > 1 and merged_at >= 0:
+            strata = [slice(None)]
+    else:
+        k, want = k0, 2
+        while k < n:
+            nxt = np.searchsorted(grips, k) + want - 1  # the block's last grip
+            e = min(n, k + 2048, int(grips[nxt]) + 1 if nxt < grips.size else n)
+            b0 = k - 1 if k > k0 else k0  # the particles carried in are those of step b0 (after resampling)
+            js = slice(b0 - k0, e - 1 - k0)
+            psi_rows = np.cumsum(np.concatenate((psi[None], add_psi[js])), axis=0)
+            inc = add_pos[js] + horiz[b0 : e - 1, :, None] * np.cos(psi_rows[:-1])[:, None, :]
+            inc += model.kstep[b0 : e - 1, :, None] * np.sin(psi_rows[:-1])[:, None, :]
+            pos_rows = np.cumsum(np.concatenate((pos[None], inc)), axis=0)
+            hist_pos[k:e] = np.swapaxes(pos_rows[k - b0 :], 1, 2)  # steps k..e-1 (those after a resampling are redone)
+            hist_psi[k:e] = psi_rows[k - b0 :]
+            g = grip[k:e]
+            gi = np.flatnonzero(g)
+            ll = np.empty((gi.size, m))
+            lg = np.empty((gi.size + 1, m), dtype=np.int64)
+            lg[0] = lab
+            for after, centres, codes in ((False, r_pos, r_code), (True, w_pos, w_code)):
+                sel = late[k:e][gi] == after
+                if sel.any():
+                    lr, cr = grip_log_likelihood(hist_pos[k + gi[sel]].reshape(-1, 3), centres, codes, p.hold)
+                    ll[sel] = lr.reshape(-1, m)
+                    lg[1:][sel] = np.where(cr == ELSEWHERE, nowhere, cr).reshape(-1, m)
+            if temper is not None:
+                ll *= temper[k + gi][:, None]
+            lws = np.cumsum(np.concatenate((lw[None], ll)), axis=0)  # before the block's grips, after each
+            top = lws.max(axis=1, keepdims=True)
+            lws -= top
+            lsum, ess = _strata_sums(lws, strata)  # per stratum and row
+            log_sum = np.logaddexp.reduce(lsum, axis=0)  # of all weights, per row (relative to the row's largest)
+            if len(strata) > 1:
+                # each hypothesis's log evidence after every row: its weights' total (resampling keeps it)
+                hyp_ev = start_ev[:, None] + (lsum + top.T) - (lsum[:, :1] + top[0])
+                hyp_p = np.exp(hyp_ev - hyp_ev.max(axis=0))
+                hyp_p /= hyp_p.sum(axis=0)
+                wsw = np.empty_like(lws)  # normalised within each stratum
                 for h, st in enumerate(strata):
-                    if ess[h, r] < p.ess_fraction * counts[h]:
-                        mem = np.arange(m)[st]
-                        idx[mem] = mem[systematic_resample(_normalised(lws[r, mem]), u_res[last])]
-                        lw[mem] = lsum[h, r] - np.log(counts[h])  # the stratum keeps its total weight
-            if last < n - 1:
-                anc[last] = idx
-            pos, psi, lab = pos[:, idx], psi[idx], lab[idx]
-            resamples += 1
-            want = 2
-        else:
-            want = min(4 * want, 64)
-        k = stop
+                    wsw[:, st] = np.exp(lws[:, st] - lsum[h][:, None])
+                ws = wsw * hyp_p.T[:, which]  # between the strata by hyp_p
+            else:
+                ws = wsw = np.exp(lws - log_sum[:, None])
+            low = (ess[:, 1:] < p.ess_fraction * counts[:, None]).any(axis=0)
+            stop_row = int(np.argmax(low)) + 1 if low.any() else gi.size + 1  # first row (1 + grip) to act on
+            merge = False
+            if len(strata) > 1:
+                ends = np.flatnonzero(grip_end[k + gi[:stop_row]]) + 1
+                same = _same_best_hold(wsw[ends], lg[ends], strata, table.size, nowhere)
+                if same.any():
+                    stop_row, merge = int(ends[np.argmax(same)]), True
+            stop = e if stop_row > gi.size else k + int(gi[stop_row - 1]) + 1  # steps k..stop-1 are final
+            rows = slice(k, stop)
+            at = np.cumsum(g[: stop - k])  # per step: the block's grips so far = its row of ws, lg
+            hist_w[rows], hist_lab[rows] = wsw[at], lg[at]  # split: within the strata (the smoother picks one)
+            out_pos[rows], code, out_prob[rows], out_yaw[rows] = _cluster_rows(
+                ws[at], hist_lab[rows], hist_pos[rows], hist_psi[rows], table.size
+            )
+            out_lab[rows] = table[code]
+            last, r = stop - 1, int(at[-1])
+            tot = top[:, 0] + log_sum
+            out_ev[rows] = log_z + tot[at] - tot[0]
+            log_z = float(out_ev[last])
+            pos, psi, lab, lw = pos_rows[last - b0], hist_psi[last], hist_lab[last], lws[r]
+            if len(strata) > 1:
+                start_ev = hyp_ev[:, r]
+            if merge or stop_row <= gi.size:
+                idx = np.arange(m)
+                lw = lw.copy()
+                if merge:  # one track: the hypothesis with the larger evidence takes all particles
+                    best = strata[int(np.argmax(hyp_ev[:, r]))]
+                    idx = best[systematic_resample(_normalised(lws[r, best]), u_res[last], m)]
+                    strata, counts, lw[:], merged_at = [slice(None)], np.array([m]), 0.0, last
+                else:
+                    for h, st in enumerate(strata):
+                        if ess[h, r] < p.ess_fraction * counts[h]:
+                            mem = np.arange(m)[st]
+                            idx[mem] = mem[systematic_resample(_normalised(lws[r, mem]), u_res[last])]
+                            lw[mem] = lsum[h, r] - np.log(counts[h])  # the stratum keeps its total weight
+                if last < n - 1:
+                    anc[last] = idx
+                pos, psi, lab = pos[:, idx], psi[idx], lab[idx]
+                resamples += 1
+                want = 2
+            else:
+                want = min(4 * want, 64)
+            k = stop
     res = PFResult(
         k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples, out_ev, merged_at, start_ev
     )
@@ -564,6 +606,17 @@ def _backward(
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
+    pf_c = _native()
+    if pf_c is not None:  # the same draws and test, the whitened distances formed per trajectory in C
+        j, cum, u, log_u = backward_draws(w, rng, k0, moves)
+        path = np.empty((n - k0, m), dtype=np.int64)
+        c64 = np.ascontiguousarray
+        pf_c.backward_paths(
+            n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
+            c64(state), c64(model.step - model.ustep), c64(model.kstep), c64(model.ustep),
+            c64(model.chol), c64(model.yaw_sigma), path,
+        )  # fmt: skip
+        return path_weights(path, n, k0)
     steps = np.stack((model.step - model.ustep, model.kstep, model.ustep), axis=1)  # (n-1, 3, 3)
     a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
     b = np.empty((n, m, 4))

@@ -10,7 +10,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["reweight", "effective_size", "systematic_resample", "backward_simulation", "backward_simulation_gaussian"]
+__all__ = [
+    "reweight",
+    "effective_size",
+    "systematic_resample",
+    "backward_draws",
+    "backward_simulation",
+    "backward_simulation_gaussian",
+    "path_weights",
+]
 
 
 def reweight(w: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
@@ -59,7 +67,7 @@ def systematic_resample(w: np.ndarray, u0: float, count: int | None = None) -> n
     return np.minimum(np.searchsorted(c, u), m - 1)
 
 
-def _backward_draws(
+def backward_draws(
     w: np.ndarray, rng: np.random.Generator, k0: int, moves: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The random draws of a backward simulation, all at once: the trajectories' ends ``(m,)``, the
@@ -126,7 +134,7 @@ def backward_simulation(
     ws = np.zeros_like(w, dtype=np.float64)
     if n == 0 or k0 >= n:
         return ws
-    b, cum, u, log_u = _backward_draws(w, rng, k0, moves)
+    b, cum, u, log_u = backward_draws(w, rng, k0, moves)
     ws[n - 1] = np.bincount(b, minlength=m) / m
     for k in range(n - 2, k0 - 1, -1):
         r = k - k0
@@ -176,16 +184,22 @@ def backward_simulation_gaussian(
         Smoothed weights (rows ``k0..n-1``; earlier rows are zero).
     """
     n, m = w.shape
-    ws = np.zeros_like(w, dtype=np.float64)
     if n == 0 or k0 >= n:
-        return ws
-    j, cum, u, log_u = _backward_draws(w, rng, k0, moves)
+        return np.zeros_like(w, dtype=np.float64)
+    j, cum, u, log_u = backward_draws(w, rng, k0, moves)
     thr = -2.0 * log_u  # accept when |b - a'|^2 - |b - a|^2 < -2 log u
     if moves == 1 and not _STEPWISE:
         path = _gaussian_path_blocks(j, cum, u[:, 0], thr[:, 0], ancestors, a, b, k0)
     else:
         path = _gaussian_path_steps(j, cum, u, thr, ancestors, a, b, k0)
-    rows = path.shape[0]
+    return path_weights(path, n, k0)
+
+
+def path_weights(path: np.ndarray, n: int, k0: int) -> np.ndarray:
+    """Smoothed weights (n, m) from backward-simulated trajectories ``path`` (n - k0, m) of particle indices:
+    the fraction of the trajectories through each particle, rows ``k0..n-1`` (earlier rows zero)."""
+    rows, m = path.shape
+    ws = np.zeros((n, m))
     ws[k0:] = np.bincount((path + m * np.arange(rows)[:, None]).ravel(), minlength=rows * m).reshape(rows, m)
     ws[k0:] /= m
     return ws

@@ -1,0 +1,444 @@
+/* The climbing particle filter's forward pass and the backward-simulation paths, as a C extension.
+ *
+ * sportfusion.climbing.particles.run_particle_filter computes the same in numpy, over blocks of steps
+ * (that path stays the reference the tests compare this one with, and the fallback when this optional
+ * extension is not built).  Here one loop runs step by step: eq 17's prediction with the process noise
+ * drawn by the caller, the grip likelihood of eqs 18-22 (nearest hold centre), the weights per start-hold
+ * stratum with their evidence, the merge of the strata, systematic resampling and the most likely
+ * cluster's outputs.  The random numbers all come from the caller, so both paths draw the same ones.
+ *
+ * Arrays travel through the buffer protocol (no numpy headers needed to build): C-contiguous, 8-byte
+ * items (float64, or int64 where named *_i below); the Python side checks shapes and allocates outputs.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct {
+    Py_buffer view;
+    int held;
+} Buf;
+
+static int get_buf(PyObject *obj, Buf *b, Py_ssize_t count, int writable, const char *name) {
+    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+    b->held = 0;
+    if (PyObject_GetBuffer(obj, &b->view, flags) < 0) return -1;
+    b->held = 1;
+    if (b->view.itemsize != 8 || (count >= 0 && b->view.len != 8 * count) || (count < 0 && b->view.len < 8 * -count)) {
+        PyErr_Format(PyExc_ValueError, "%s: expected %zd 8-byte items, got %zd bytes", name, count, b->view.len);
+        return -1;
+    }
+    return 0;
+}
+
+static void release(Buf *b, int count) {
+    for (int i = 0; i < count; i++)
+        if (b[i].held) PyBuffer_Release(&b[i].view);
+}
+
+/* indices of systematic resampling (sportfusion.estimators.particles.systematic_resample) of the weights
+ * exp(lw[idx[i]] - top), i < size, normalised; count draws written to out (indices into idx) */
+static void systematic(const double *lw, const int64_t *idx, int64_t size, double u0, int64_t count, int64_t *out,
+                       double *cum) {
+    double top = -INFINITY, s = 0.0;
+    for (int64_t i = 0; i < size; i++)
+        if (lw[idx[i]] > top) top = lw[idx[i]];
+    for (int64_t i = 0; i < size; i++) {
+        cum[i] = exp(lw[idx[i]] - top);
+        s += cum[i];
+    }
+    double c = 0.0;
+    for (int64_t i = 0; i < size; i++) {
+        c += cum[i] / s;
+        cum[i] = c;
+    }
+    cum[size - 1] = 1.0;
+    int64_t j = 0;
+    for (int64_t i = 0; i < count; i++) {
+        double u = (u0 + (double)i) / (double)count;
+        while (j < size - 1 && cum[j] < u) j++; /* searchsorted(cum, u, "left"), capped at size - 1 */
+        out[i] = j;
+    }
+}
+
+/* per stratum st[i] < ns of the log weights: the log of the weights' sum (each stratum relative to its own
+ * largest, so that none underflows) and, if ess is given, the effective sample size within the stratum */
+static void strata_sums(const double *lw, const int64_t *st, int64_t m, int64_t ns, double *tops, double *lsum,
+                        double *ess) {
+    for (int64_t h = 0; h < ns; h++) tops[h] = -INFINITY, lsum[h] = 0.0;
+    if (ess)
+        for (int64_t h = 0; h < ns; h++) ess[h] = 0.0;
+    for (int64_t i = 0; i < m; i++)
+        if (lw[i] > tops[st[i]]) tops[st[i]] = lw[i];
+    for (int64_t i = 0; i < m; i++) {
+        double e = exp(lw[i] - tops[st[i]]);
+        lsum[st[i]] += e;
+        if (ess) ess[st[i]] += e * e;
+    }
+    for (int64_t h = 0; h < ns; h++) {
+        if (ess) ess[h] = lsum[h] * lsum[h] / ess[h];
+        lsum[h] = tops[h] + log(lsum[h]);
+    }
+}
+
+/* log of the sum of exp(lw) over all particles */
+static double log_sum_all(const double *lw, int64_t m) {
+    double top = -INFINITY, s = 0.0;
+    for (int64_t i = 0; i < m; i++)
+        if (lw[i] > top) top = lw[i];
+    for (int64_t i = 0; i < m; i++) s += exp(lw[i] - top);
+    return top + log(s);
+}
+
+typedef struct {
+    int64_t n, m, k0, ncodes, nowhere, nstrata, nr, nw;
+    double radius, sigma, log_peak, log_other, ess_fraction;
+} Dims;
+
+/* The forward pass.  Returns the merge step (-1: never; k0 with one stratum), sets *resamples. */
+static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *add_pos,
+                       const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
+                       const int64_t *late, const double *temper, const double *r_pos, const int64_t *r_code,
+                       const double *w_pos, const int64_t *w_code, const double *pos0, const double *psi0,
+                       const int64_t *lab0, const int64_t *which, double *hist, double *hist_w, int64_t *hist_lab,
+                       int64_t *anc, double *out_pos, int64_t *out_code, double *out_prob, double *out_yaw,
+                       double *out_ev, double *start_ev, int64_t *resamples, double *work, int64_t *iwork) {
+    const int64_t n = d->n, m = d->m, k0 = d->k0, nc = d->ncodes;
+    int64_t ns = d->nstrata;
+    /* work: pos (3m), psi (m), lw (m), ws (m), cum (m), new pos (3m), new psi (m), sums (nc * (ns + 1)), and per
+     * stratum lsum, lsum0, ess, hyp_p, tops (5 ns) */
+    double *pos = work, *psi = pos + 3 * m, *lw = psi + m, *ws = lw + m, *cum = ws + m, *npos = cum + m;
+    double *npsi = npos + 3 * m, *sums = npsi + m, *lsum = sums + nc * (ns + 1), *lsum0 = lsum + ns;
+    double *ess = lsum0 + ns, *hyp_p = ess + ns, *tops = hyp_p + ns;
+    /* iwork: lab (m), new lab (m), idx (m), members (m), draws (m), stratum of each particle (m), counts (ns) */
+    int64_t *lab = iwork, *nlab = lab + m, *idx = nlab + m, *mem = idx + m, *draw = mem + m, *st = draw + m;
+    int64_t *counts = st + m;
+    int64_t merged_at = ns > 1 ? -1 : k0, best = 0;
+    int fresh = 1; /* the particles were resampled at the last step: normalise their weights again */
+    double log_z = 0.0;
+    memcpy(pos, pos0, 3 * m * sizeof(double));
+    memcpy(psi, psi0, m * sizeof(double));
+    memcpy(lab, lab0, m * sizeof(int64_t));
+    for (int64_t h = 0; h < ns; h++) counts[h] = 0;
+    for (int64_t i = 0; i < m; i++) {
+        st[i] = ns > 1 ? which[i] : 0;
+        counts[st[i]]++;
+        lw[i] = 0.0;
+    }
+    for (int64_t h = 0; h < ns; h++) start_ev[h] = 0.0;
+    *resamples = 0;
+    for (int64_t k = k0; k < n; k++) {
+        if (k > k0) { /* eq 17 from k - 1: pos + Rot_up(psi) step + noise, the yaw of step k - 1 */
+            const int64_t j = k - 1 - k0;
+            const double *ap = add_pos + 3 * m * j, *hz = horiz + 3 * (k - 1), *ks = kstep + 3 * (k - 1);
+            for (int64_t i = 0; i < m; i++) {
+                double c = cos(psi[i]), s = sin(psi[i]);
+                for (int a = 0; a < 3; a++) pos[3 * i + a] += ap[a * m + i] + hz[a] * c + ks[a] * s;
+                psi[i] += add_psi[m * j + i];
+            }
+        }
+        double *hk = hist + 4 * m * k;
+        for (int64_t i = 0; i < m; i++) {
+            hk[4 * i] = pos[3 * i];
+            hk[4 * i + 1] = pos[3 * i + 1];
+            hk[4 * i + 2] = pos[3 * i + 2];
+            hk[4 * i + 3] = psi[i];
+        }
+        int g = grip[k] != 0;
+        if (g) { /* eq 18: the best hold or "elsewhere", per particle */
+            const double *cen = late[k] ? w_pos : r_pos;
+            const int64_t *code = late[k] ? w_code : r_code;
+            const int64_t nh = late[k] ? d->nw : d->nr;
+            const double tw = temper ? temper[k] : 1.0;
+            strata_sums(lw, st, m, ns, tops, lsum0, NULL);
+            double all0 = log_sum_all(lw, m);
+            for (int64_t i = 0; i < m; i++) {
+                const double *p = pos + 3 * i;
+                double best = INFINITY;
+                int64_t bi = 0;
+                for (int64_t c = 0; c < nh; c++) {
+                    double dx = p[0] - cen[3 * c], dy = p[1] - cen[3 * c + 1], dz = p[2] - cen[3 * c + 2];
+                    double d2 = dx * dx + dy * dy + dz * dz;
+                    if (d2 < best) {
+                        best = d2;
+                        bi = c;
+                    }
+                }
+                double ex = sqrt(best) - d->radius;
+                ex = ex > 0.0 ? ex / d->sigma : 0.0;
+                double logh = d->log_peak - 0.5 * ex * ex;
+                int at_hold = logh > d->log_other;
+                lw[i] += tw * (at_hold ? logh : d->log_other);
+                lab[i] = at_hold ? code[bi] : d->nowhere;
+            }
+            /* the evidence: per stratum (while there are several) and of all particles, log(sum w l / sum w) */
+            strata_sums(lw, st, m, ns, tops, lsum, ess);
+            double all1 = log_sum_all(lw, m), top1 = -INFINITY;
+            if (ns > 1)
+                for (int64_t h = 0; h < ns; h++) start_ev[h] += lsum[h] - lsum0[h];
+            log_z += all1 - all0;
+            for (int64_t i = 0; i < m; i++)
+                if (lw[i] > top1) top1 = lw[i];
+            for (int64_t i = 0; i < m; i++) lw[i] -= top1; /* relative to the largest, as in numpy */
+            for (int64_t h = 0; h < ns; h++) lsum[h] -= top1;
+        }
+        out_ev[k] = log_z;
+        double *hw = hist_w + m * k;
+        if (fresh || g) { /* weights normalised within the strata (hist_w) and between them by their evidence (ws) */
+            if (!g) strata_sums(lw, st, m, ns, tops, lsum, NULL);
+            double hmax = -INFINITY, hs = 0.0;
+            for (int64_t h = 0; h < ns; h++)
+                if (start_ev[h] > hmax) hmax = start_ev[h];
+            for (int64_t h = 0; h < ns; h++) hs += hyp_p[h] = exp(start_ev[h] - hmax);
+            for (int64_t i = 0; i < m; i++) {
+                hw[i] = exp(lw[i] - lsum[st[i]]);
+                ws[i] = ns > 1 ? hw[i] * hyp_p[st[i]] / hs : hw[i];
+            }
+            /* the most likely cluster (ties: the lowest code) */
+            memset(sums, 0, nc * sizeof(double));
+            for (int64_t i = 0; i < m; i++) sums[lab[i]] += ws[i];
+            best = 0;
+            for (int64_t c = 1; c < nc; c++)
+                if (sums[c] > sums[best]) best = c;
+        } else { /* no grip and no resampling since the last step: the same weights and clusters */
+            memcpy(hw, hw - m, m * sizeof(double));
+        }
+        fresh = 0;
+        memcpy(hist_lab + m * k, lab, m * sizeof(int64_t));
+        double prob = sums[best], mx = 0.0, my = 0.0, mz = 0.0, myaw = 0.0;
+        for (int64_t i = 0; i < m; i++)
+            if (lab[i] == best) {
+                double w = ws[i] / prob;
+                mx += w * pos[3 * i];
+                my += w * pos[3 * i + 1];
+                mz += w * pos[3 * i + 2];
+                myaw += w * psi[i];
+            }
+        out_pos[3 * k] = mx, out_pos[3 * k + 1] = my, out_pos[3 * k + 2] = mz;
+        out_code[k] = best, out_prob[k] = prob, out_yaw[k] = myaw;
+        if (!g) continue;
+        /* merge: at the end of a grip, every stratum's most likely cluster is the same hold */
+        int merge = 0, low = 0;
+        if (ns > 1 && grip_end[k]) {
+            double *sh = sums + nc;
+            memset(sh, 0, nc * ns * sizeof(double));
+            for (int64_t i = 0; i < m; i++) sh[st[i] * nc + lab[i]] += hw[i];
+            int64_t b0 = -1;
+            merge = 1;
+            for (int64_t h = 0; h < ns && merge; h++) {
+                int64_t bh = 0;
+                for (int64_t c = 1; c < nc; c++)
+                    if (sh[h * nc + c] > sh[h * nc + bh]) bh = c;
+                if (h == 0) b0 = bh;
+                merge = bh == b0 && bh != d->nowhere;
+            }
+        }
+        for (int64_t h = 0; h < ns; h++) low |= ess[h] < d->ess_fraction * (double)counts[h];
+        if (!merge && !low) continue;
+        for (int64_t i = 0; i < m; i++) idx[i] = i;
+        if (merge) { /* the stratum with the larger evidence takes all particles */
+            int64_t bh = 0, sz = 0;
+            for (int64_t h = 1; h < ns; h++)
+                if (start_ev[h] > start_ev[bh]) bh = h;
+            for (int64_t i = 0; i < m; i++)
+                if (st[i] == bh) mem[sz++] = i;
+            systematic(lw, mem, sz, u_res[k], m, draw, cum);
+            for (int64_t i = 0; i < m; i++) idx[i] = mem[draw[i]];
+            for (int64_t i = 0; i < m; i++) lw[i] = 0.0, st[i] = 0;
+            ns = 1;
+            counts[0] = m;
+            merged_at = k;
+        } else {
+            for (int64_t h = 0; h < ns; h++) {
+                if (!(ess[h] < d->ess_fraction * (double)counts[h])) continue;
+                int64_t sz = 0;
+                for (int64_t i = 0; i < m; i++)
+                    if (st[i] == h) mem[sz++] = i;
+                systematic(lw, mem, sz, u_res[k], sz, draw, cum);
+                double keep = lsum[h] - log((double)counts[h]); /* the stratum keeps its total weight */
+                for (int64_t i = 0; i < sz; i++) idx[mem[i]] = mem[draw[i]];
+                for (int64_t i = 0; i < sz; i++) lw[mem[i]] = keep;
+            }
+        }
+        if (k < n - 1) memcpy(anc + m * k, idx, m * sizeof(int64_t));
+        for (int64_t i = 0; i < m; i++) {
+            int64_t s = idx[i];
+            npos[3 * i] = pos[3 * s], npos[3 * i + 1] = pos[3 * s + 1], npos[3 * i + 2] = pos[3 * s + 2];
+            npsi[i] = psi[s];
+            nlab[i] = lab[s];
+        }
+        memcpy(pos, npos, 3 * m * sizeof(double));
+        memcpy(psi, npsi, m * sizeof(double));
+        memcpy(lab, nlab, m * sizeof(int64_t));
+        (*resamples)++;
+        fresh = 1;
+    }
+    return merged_at;
+}
+
+static PyObject *py_forward(PyObject *self, PyObject *args) {
+    Dims d;
+    PyObject *o[29];
+    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOO", &d.n, &d.m, &d.k0, &d.ncodes, &d.nowhere,
+                          &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other, &d.ess_fraction,
+                          &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
+                          &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20], &o[21], &o[22], &o[23],
+                          &o[24], &o[25], &o[26], &o[27], &o[28]))
+        return NULL;
+    const int64_t n = d.n, m = d.m, nk = n - 1 - d.k0 > 0 ? n - 1 - d.k0 : 0;
+    if (n < 1 || m < 2 || d.k0 < 0 || d.k0 >= n || d.nstrata < 1 || d.nr < 1 || d.nw < 1 || d.ncodes < 1) {
+        PyErr_SetString(PyExc_ValueError, "pf_forward: bad dimensions");
+        return NULL;
+    }
+    int has_temper = o[8] != Py_None;
+    static const char *names[29] = {"horiz",  "kstep",    "add_pos", "add_psi",  "u_res",   "grip",    "grip_end",
+                                    "late",   "temper",   "r_pos",   "r_code",   "w_pos",   "w_code",  "pos0",
+                                    "psi0",   "lab0",     "which",   "hist",     "hist_w",  "hist_lab", "anc",
+                                    "out_pos", "out_code", "out_prob", "out_yaw", "out_ev", "start_ev", "work",
+                                    "iwork"};
+    Py_ssize_t cnt[29] = {3 * (n - 1 > 0 ? n - 1 : 1), 3 * (n - 1 > 0 ? n - 1 : 1), 3 * m * nk, m * nk, n, n, n, n,
+                          n, 3 * d.nr, d.nr, 3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * n, m * n, m * n,
+                          m * (n - 1 > 0 ? n - 1 : 1), 3 * n, n, n, n, n, d.nstrata,
+                          11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata};
+    Buf b[29];
+    memset(b, 0, sizeof(b));
+    int k;
+    for (k = 0; k < 29; k++) {
+        if (k == 8 && !has_temper) continue;
+        if (k == 2 && nk == 0) continue;
+        if (k == 3 && nk == 0) continue;
+        if (get_buf(o[k], &b[k], cnt[k], k >= 17, names[k]) < 0) break;
+    }
+    PyObject *res = NULL;
+    if (k == 29) {
+        void *p[29];
+        for (int i = 0; i < 29; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
+        int64_t resamples = 0, merged;
+        Py_BEGIN_ALLOW_THREADS
+        merged = forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+                         p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26],
+                         &resamples, p[27], p[28]);
+        Py_END_ALLOW_THREADS
+        res = Py_BuildValue("LL", (long long)merged, (long long)resamples);
+    }
+    release(b, 29);
+    return res;
+}
+
+/* Backward simulation with Metropolis-Hastings moves (sportfusion.estimators.particles.backward_simulation_gaussian)
+ * for eq 17's transition density: log f(x_k+1(j) | x_k(i)) = -|L_k^-1 (p_k+1(j) - predict_k(i))|^2 / 2
+ * - ((psi_k+1(j) - psi_k(i)) / s_k)^2 / 2 with predict_k(i) = p_k(i) + horiz_k cos psi + kstep_k sin psi + ustep_k
+ * (L_k lower triangular).  Fills the trajectories' particles path (n - k0, m). */
+/* eq 17's prediction of every particle of step k without noise: predicted position and yaw, (m, 4) */
+static void predict_all(int64_t m, const double *xk, const double *hz, const double *ks, const double *us,
+                        double *pred) {
+    for (int64_t i = 0; i < m; i++) {
+        const double *x = xk + 4 * i;
+        double c = cos(x[3]), s = sin(x[3]);
+        for (int a = 0; a < 3; a++) pred[4 * i + a] = x[a] + hz[a] * c + ks[a] * s + us[a];
+        pred[4 * i + 3] = x[3];
+    }
+}
+
+/* -2 log f up to a constant: the whitened squared distance of x_k+1(j) from a prediction */
+static inline double neg2logf(const double *pred, const double *xj, const double *L, double inv_s) {
+    double z0 = (xj[0] - pred[0]) / L[0];
+    double z1 = (xj[1] - pred[1] - L[3] * z0) / L[4];
+    double z2 = (xj[2] - pred[2] - L[6] * z0 - L[7] * z1) / L[8];
+    double zy = (xj[3] - pred[3]) * inv_s;
+    return z0 * z0 + z1 * z1 + z2 * z2 + zy * zy;
+}
+
+static void backward_paths(int64_t n, int64_t m, int64_t k0, int64_t moves, const int64_t *j0, const double *cum,
+                           const double *u, const double *thr, const int64_t *anc, const double *hist,
+                           const double *horiz, const double *kstep, const double *ustep, const double *chol,
+                           const double *yaw_sigma, int64_t *path, double *pred) {
+    int64_t *j = path + (n - 1 - k0) * m;
+    memcpy(j, j0, m * sizeof(int64_t));
+    for (int64_t k = n - 2; k >= k0; k--) {
+        const int64_t r = k - k0;
+        int64_t *out = path + r * m;
+        const int64_t *ak = anc + k * m;
+        const double *ck = cum + r * m, *xk1 = hist + 4 * m * (k + 1), *L = chol + 9 * k;
+        const double inv_s = 1.0 / yaw_sigma[k];
+        if (moves) predict_all(m, hist + 4 * m * k, horiz + 3 * k, kstep + 3 * k, ustep + 3 * k, pred);
+        for (int64_t t = 0; t < m; t++) {
+            const int64_t jt = j[t];
+            int64_t cur = ak[jt];
+            const double *xj = xk1 + 4 * jt;
+            double sc = moves ? neg2logf(pred + 4 * cur, xj, L, inv_s) : 0.0;
+            for (int64_t mv = 0; mv < moves; mv++) {
+                const double uu = u[(r * moves + mv) * m + t];
+                /* searchsorted(cum, u, "right"): the first index with cum > u (branch-free halving) */
+                const double *base = ck;
+                int64_t len = m;
+                while (len > 1) {
+                    int64_t half = len >> 1;
+                    base = base[half - 1] <= uu ? base + half : base;
+                    len -= half;
+                }
+                int64_t prop = (base - ck) + (*base <= uu);
+                if (prop > m - 1) prop = m - 1;
+                double sp = neg2logf(pred + 4 * prop, xj, L, inv_s);
+                if (sp - sc < thr[(r * moves + mv) * m + t]) cur = prop, sc = sp;
+            }
+            out[t] = cur;
+        }
+        j = out;
+    }
+}
+
+static PyObject *py_paths(PyObject *self, PyObject *args) {
+    long long n, m, k0, moves;
+    PyObject *o[12];
+    if (!PyArg_ParseTuple(args, "LLLLOOOOOOOOOOOO", &n, &m, &k0, &moves, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5],
+                          &o[6], &o[7], &o[8], &o[9], &o[10], &o[11]))
+        return NULL;
+    if (n < 2 || m < 1 || k0 < 0 || k0 > n - 2 || moves < 0) {
+        PyErr_SetString(PyExc_ValueError, "backward_paths: bad dimensions (needs n >= 2, k0 <= n - 2)");
+        return NULL;
+    }
+    const long long steps = n - 1 - k0;
+    static const char *names[12] = {"j",     "cum",   "u",     "thr",  "ancestors", "hist",
+                                    "horiz", "kstep", "ustep", "chol", "yaw_sigma", "path"};
+    Py_ssize_t cnt[12] = {m, steps * m, steps * moves * m, steps * moves * m, (n - 1) * m, 4 * n * m,
+                          3 * (n - 1), 3 * (n - 1), 3 * (n - 1), 9 * (n - 1), n - 1, (n - k0) * m};
+    Buf b[12];
+    memset(b, 0, sizeof(b));
+    int k;
+    for (k = 0; k < 12; k++) {
+        if (moves == 0 && (k == 2 || k == 3)) continue;
+        if (get_buf(o[k], &b[k], cnt[k], k == 11, names[k]) < 0) break;
+    }
+    PyObject *res = NULL;
+    double *pred = k == 12 ? PyMem_RawMalloc(4 * m * sizeof(double)) : NULL;
+    if (k == 12 && !pred) PyErr_NoMemory();
+    if (pred) {
+        Py_BEGIN_ALLOW_THREADS
+        backward_paths(n, m, k0, moves, b[0].view.buf, b[1].view.buf, moves ? b[2].view.buf : NULL,
+                       moves ? b[3].view.buf : NULL, b[4].view.buf, b[5].view.buf, b[6].view.buf, b[7].view.buf,
+                       b[8].view.buf, b[9].view.buf, b[10].view.buf, b[11].view.buf, pred);
+        Py_END_ALLOW_THREADS
+        PyMem_RawFree(pred);
+        res = Py_None;
+        Py_INCREF(res);
+    }
+    release(b, 12);
+    return res;
+}
+
+static PyMethodDef methods[] = {
+    {"forward", py_forward, METH_VARARGS, "The climbing particle filter's forward pass (see particles.py)."},
+    {"backward_paths", py_paths, METH_VARARGS, "Backward-simulation trajectories of eq 17's transition density."},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_pf_c", "Compiled climbing particle filter and backward simulation (numpy path's equations).",
+    -1, methods,
+};
+
+PyMODINIT_FUNC PyInit__pf_c(void) { return PyModule_Create(&module); }

@@ -1,0 +1,133 @@
+"""The climbing particle filter's C path (``climbing/_pf_c.c``) against its numpy reference.
+
+Both draw the same random numbers, so the filter's outputs agree to rounding and the smoother picks the
+same trajectories; the step-by-step references in ``test_climbing_particles.py`` check whichever path is
+built, these tests check that the two paths agree.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from sportfusion.climbing import particles as pf
+from sportfusion.climbing.particles import PFParams, PFResult
+
+C = pf._native()
+needs_c = pytest.mark.skipif(C is None, reason="the C extension sportfusion.climbing._pf_c is not built")
+UP = np.array([0.0, 0.0, 1.0])
+
+
+@pytest.fixture
+def engines() -> Iterator[dict]:
+    """Run a function with the numpy path and with the C path; the module's choice restored after."""
+    saved = pf._NATIVE
+
+    def both(fn):  # noqa: ANN001, ANN202
+        out = {}
+        for name, mod in (("numpy", None), ("c", C)):
+            pf._NATIVE = mod
+            out[name] = fn()
+        return out
+
+    yield both
+    pf._NATIVE = saved
+
+
+def _same(a: PFResult, b: PFResult, smooth: bool = True) -> None:
+    assert (a.k0, a.resamples, a.merged_at) == (b.k0, b.resamples, b.merged_at)
+    k = a.k0
+    for name in ("pos", "prob", "yaw", "log_evidence"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert np.isnan(x[:k]).all() and np.isnan(y[:k]).all(), name
+        assert np.allclose(x[k:], y[k:], rtol=1e-12, atol=1e-9), name
+    assert np.array_equal(a.label, b.label)
+    assert np.allclose(a.start_evidence, b.start_evidence, rtol=1e-12, atol=1e-8)
+    if smooth:
+        assert np.array_equal(a.smooth_label, b.smooth_label)
+        assert np.allclose(a.smooth_pos[k:], b.smooth_pos[k:], rtol=0, atol=1e-9)
+        assert np.allclose(a.smooth_prob[k:], b.smooth_prob[k:], rtol=0, atol=1e-12)
+
+
+def test_the_extension_is_built_where_a_compiler_is() -> None:
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler here")
+    if os.environ.get("SPORTFUSION_NATIVE") == "0":
+        pytest.skip("SPORTFUSION_NATIVE=0: the fallback is asked for")
+    assert C is not None, "sportfusion.climbing._pf_c is not built: pip install -e . (make .venv/.installed)"
+
+
+def _ladder(second_start_x: float = 0.5):
+    """Start holds 0 (x=0) and 1; the hand starts on 0, climbs to 2 then 3; white velocity noise."""
+    centres = np.array([[0.0, 0.0, 1.2], [second_start_x, 0.0, 1.2], [0.05, 0.0, 1.8], [-0.1, 0.0, 2.4]])
+    ids = np.array([0, 1, 2, 3])
+    rng = np.random.default_rng(7)
+    dt = 0.02
+    t, p, grip, t0 = [], [], [], 0.0
+    for i, h in enumerate((0, 2, 3)):
+        tg = t0 + np.arange(0, 1.0, dt)
+        t.append(tg), p.append(np.repeat(centres[h][None] + [0, -0.05, 0], tg.size, axis=0)), grip.append(tg > -1)
+        t0 = tg[-1] + dt
+        if i < 2:
+            tm = t0 + np.arange(0, 0.6, dt)
+            s = (tm - t0) / 0.6
+            a, b = centres[h], centres[(0, 2, 3)[i + 1]]
+            t.append(tm), p.append(a + [0, -0.05, 0] + (s**3 * (10 - 15 * s + 6 * s * s))[:, None] * (b - a))
+            grip.append(tm < -1)
+            t0 = tm[-1] + dt
+    t, p, grip = np.concatenate(t), np.concatenate(p), np.concatenate(grip)
+    v = np.gradient(p, t, axis=0) + rng.normal(0, 0.05, p.shape)
+    cov = np.repeat((0.03**2 * np.eye(3))[None], t.size, axis=0)
+    grip[:3] = False  # the filter starts at the first grip
+    return t, v, cov, grip, (ids, centres), (ids[:2], centres[:2])
+
+
+@needs_c
+@pytest.mark.parametrize(
+    "second_start_x, params",
+    [
+        (0.5, PFParams(particles=60, ess_fraction=0.97)),  # strata that never meet, resampled often
+        (0.12, PFParams(particles=60, ess_fraction=0.97)),  # strata that merge at hold 2
+        (0.12, PFParams(particles=60, grip_count=2.0)),  # tempered grips
+        (0.5, PFParams(particles=50, separate_starts=False, smoother_moves=3)),  # one set, three moves
+    ],
+)
+def test_c_path_equals_the_numpy_filter_and_smoother(engines, second_start_x: float, params: PFParams) -> None:
+    t, v, cov, grip, route, start = _ladder(second_start_x)
+    out = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=3))
+    _same(out["numpy"], out["c"])
+    assert out["c"].resamples > 0
+    if params.separate_starts:
+        assert (out["c"].merged_at > 0) == (second_start_x < 0.3)
+
+
+@needs_c
+def test_c_path_equals_numpy_on_a_simulated_trial_with_descent(engines) -> None:
+    """A simulated bouldering trial through the transition estimator: route holds, then the wall's."""
+    from sportfusion.climbing.grips import grip_columns
+    from sportfusion.climbing.holds import validate
+    from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
+    from sportfusion.climbing.track import track_holds
+    from sportfusion.core.session import with_columns
+
+    sim = simulate_boulder(BoulderConfig(seed=31, duration=20.0))
+    holds = validate(sim.holds, sim.holds_meta)
+    table = with_columns(sim.session, grip_columns(sim.session)[0])
+    out = engines(lambda: track_holds(table, sim.meta, holds).pf)
+    _same(out["numpy"], out["c"])
+    assert out["c"].resamples > 10
+
+
+@needs_c
+def test_bad_dimensions_are_refused() -> None:
+    z = np.zeros(3)
+    with pytest.raises(ValueError, match="bad dimensions"):
+        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 29))
+    with pytest.raises(ValueError, match="bad dimensions"):
+        C.backward_paths(1, 10, 0, 1, *([z] * 12))
+    with pytest.raises(ValueError, match="expected"):  # a wrong length: the C side checks every buffer
+        C.backward_paths(3, 2, 0, 1, *([z] * 12))
