@@ -126,7 +126,7 @@ def test_c_path_equals_numpy_on_a_simulated_trial_with_descent(engines) -> None:
 def test_bad_dimensions_are_refused() -> None:
     z = np.zeros(3)
     with pytest.raises(ValueError, match="bad dimensions"):
-        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 29))
+        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 31))
     with pytest.raises(ValueError, match="bad dimensions"):
         C.backward_paths(1, 10, 0, 1, *([z] * 12))
     with pytest.raises(ValueError, match="expected"):  # a wrong length: the C side checks every buffer

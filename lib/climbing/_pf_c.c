@@ -65,31 +65,30 @@ static void systematic(const double *lw, const int64_t *idx, int64_t size, doubl
 }
 
 /* per stratum st[i] < ns of the log weights: the log of the weights' sum (each stratum relative to its own
- * largest, so that none underflows) and, if ess is given, the effective sample size within the stratum */
+ * largest, so that none underflows) and the effective sample size within the stratum; hw (m) gets the weights
+ * normalised within their stratum */
 static void strata_sums(const double *lw, const int64_t *st, int64_t m, int64_t ns, double *tops, double *lsum,
-                        double *ess) {
-    for (int64_t h = 0; h < ns; h++) tops[h] = -INFINITY, lsum[h] = 0.0;
-    if (ess)
-        for (int64_t h = 0; h < ns; h++) ess[h] = 0.0;
+                        double *ess, double *hw) {
+    for (int64_t h = 0; h < ns; h++) tops[h] = -INFINITY, lsum[h] = 0.0, ess[h] = 0.0;
     for (int64_t i = 0; i < m; i++)
         if (lw[i] > tops[st[i]]) tops[st[i]] = lw[i];
     for (int64_t i = 0; i < m; i++) {
         double e = exp(lw[i] - tops[st[i]]);
+        hw[i] = e;
         lsum[st[i]] += e;
-        if (ess) ess[st[i]] += e * e;
+        ess[st[i]] += e * e;
     }
-    for (int64_t h = 0; h < ns; h++) {
-        if (ess) ess[h] = lsum[h] * lsum[h] / ess[h];
-        lsum[h] = tops[h] + log(lsum[h]);
-    }
+    for (int64_t h = 0; h < ns; h++) ess[h] = lsum[h] * lsum[h] / ess[h];
+    for (int64_t i = 0; i < m; i++) hw[i] /= lsum[st[i]];
+    for (int64_t h = 0; h < ns; h++) lsum[h] = tops[h] + log(lsum[h]);
 }
 
-/* log of the sum of exp(lw) over all particles */
-static double log_sum_all(const double *lw, int64_t m) {
+/* log(sum_h exp(a_h)) */
+static double log_sum(const double *a, int64_t ns) {
     double top = -INFINITY, s = 0.0;
-    for (int64_t i = 0; i < m; i++)
-        if (lw[i] > top) top = lw[i];
-    for (int64_t i = 0; i < m; i++) s += exp(lw[i] - top);
+    for (int64_t h = 0; h < ns; h++)
+        if (a[h] > top) top = a[h];
+    for (int64_t h = 0; h < ns; h++) s += exp(a[h] - top);
     return top + log(s);
 }
 
@@ -99,8 +98,8 @@ typedef struct {
 } Dims;
 
 /* The forward pass.  Returns the merge step (-1: never; k0 with one stratum), sets *resamples. */
-static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *add_pos,
-                       const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
+static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *normal_pos,
+                       const double *chol, const double *ustep, const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
                        const int64_t *late, const double *temper, const double *r_pos, const int64_t *r_code,
                        const double *w_pos, const int64_t *w_code, const double *pos0, const double *psi0,
                        const int64_t *lab0, const int64_t *which, double *hist, double *hist_w, int64_t *hist_lab,
@@ -128,15 +127,20 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
         counts[st[i]]++;
         lw[i] = 0.0;
     }
-    for (int64_t h = 0; h < ns; h++) start_ev[h] = 0.0;
+    for (int64_t h = 0; h < ns; h++) start_ev[h] = 0.0, lsum[h] = log((double)counts[h]);
     *resamples = 0;
     for (int64_t k = k0; k < n; k++) {
         if (k > k0) { /* eq 17 from k - 1: pos + Rot_up(psi) step + noise, the yaw of step k - 1 */
             const int64_t j = k - 1 - k0;
-            const double *ap = add_pos + 3 * m * j, *hz = horiz + 3 * (k - 1), *ks = kstep + 3 * (k - 1);
+            const double *z = normal_pos + 3 * m * j, *L = chol + 9 * j, *us = ustep + 3 * (k - 1);
+            const double *hz = horiz + 3 * (k - 1), *ks = kstep + 3 * (k - 1);
             for (int64_t i = 0; i < m; i++) {
                 double c = cos(psi[i]), s = sin(psi[i]);
-                for (int a = 0; a < 3; a++) pos[3 * i + a] += ap[a * m + i] + hz[a] * c + ks[a] * s;
+                const double *zi = z + 3 * i;
+                for (int a = 0; a < 3; a++) {
+                    double e = L[3 * a] * zi[0] + L[3 * a + 1] * zi[1] + L[3 * a + 2] * zi[2] + us[a];
+                    pos[3 * i + a] += e + hz[a] * c + ks[a] * s;
+                }
                 psi[i] += add_psi[m * j + i];
             }
         }
@@ -148,13 +152,15 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
             hk[4 * i + 3] = psi[i];
         }
         int g = grip[k] != 0;
+        double *hw = hist_w + m * k;
         if (g) { /* eq 18: the best hold or "elsewhere", per particle */
             const double *cen = late[k] ? w_pos : r_pos;
             const int64_t *code = late[k] ? w_code : r_code;
             const int64_t nh = late[k] ? d->nw : d->nr;
             const double tw = temper ? temper[k] : 1.0;
-            strata_sums(lw, st, m, ns, tops, lsum0, NULL);
-            double all0 = log_sum_all(lw, m);
+            /* lsum: each stratum's log total weight, kept up to date (resampling keeps the totals) */
+            memcpy(lsum0, lsum, ns * sizeof(double));
+            double all0 = log_sum(lsum0, ns);
             for (int64_t i = 0; i < m; i++) {
                 const double *p = pos + 3 * i;
                 double best = INFINITY;
@@ -175,8 +181,8 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
                 lab[i] = at_hold ? code[bi] : d->nowhere;
             }
             /* the evidence: per stratum (while there are several) and of all particles, log(sum w l / sum w) */
-            strata_sums(lw, st, m, ns, tops, lsum, ess);
-            double all1 = log_sum_all(lw, m), top1 = -INFINITY;
+            strata_sums(lw, st, m, ns, tops, lsum, ess, hw);
+            double all1 = log_sum(lsum, ns), top1 = -INFINITY;
             if (ns > 1)
                 for (int64_t h = 0; h < ns; h++) start_ev[h] += lsum[h] - lsum0[h];
             log_z += all1 - all0;
@@ -186,17 +192,14 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
             for (int64_t h = 0; h < ns; h++) lsum[h] -= top1;
         }
         out_ev[k] = log_z;
-        double *hw = hist_w + m * k;
         if (fresh || g) { /* weights normalised within the strata (hist_w) and between them by their evidence (ws) */
-            if (!g) strata_sums(lw, st, m, ns, tops, lsum, NULL);
+            if (!g)
+                for (int64_t i = 0; i < m; i++) hw[i] = exp(lw[i] - lsum[st[i]]);
             double hmax = -INFINITY, hs = 0.0;
             for (int64_t h = 0; h < ns; h++)
                 if (start_ev[h] > hmax) hmax = start_ev[h];
             for (int64_t h = 0; h < ns; h++) hs += hyp_p[h] = exp(start_ev[h] - hmax);
-            for (int64_t i = 0; i < m; i++) {
-                hw[i] = exp(lw[i] - lsum[st[i]]);
-                ws[i] = ns > 1 ? hw[i] * hyp_p[st[i]] / hs : hw[i];
-            }
+            for (int64_t i = 0; i < m; i++) ws[i] = ns > 1 ? hw[i] * hyp_p[st[i]] / hs : hw[i];
             /* the most likely cluster (ties: the lowest code) */
             memset(sums, 0, nc * sizeof(double));
             for (int64_t i = 0; i < m; i++) sums[lab[i]] += ws[i];
@@ -250,6 +253,7 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
             for (int64_t i = 0; i < m; i++) lw[i] = 0.0, st[i] = 0;
             ns = 1;
             counts[0] = m;
+            lsum[0] = log((double)m);
             merged_at = k;
         } else {
             for (int64_t h = 0; h < ns; h++) {
@@ -281,50 +285,49 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
 
 static PyObject *py_forward(PyObject *self, PyObject *args) {
     Dims d;
-    PyObject *o[29];
-    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOO", &d.n, &d.m, &d.k0, &d.ncodes, &d.nowhere,
+    PyObject *o[31];
+    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOO", &d.n, &d.m, &d.k0, &d.ncodes, &d.nowhere,
                           &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other, &d.ess_fraction,
                           &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
                           &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20], &o[21], &o[22], &o[23],
-                          &o[24], &o[25], &o[26], &o[27], &o[28]))
+                          &o[24], &o[25], &o[26], &o[27], &o[28], &o[29], &o[30]))
         return NULL;
     const int64_t n = d.n, m = d.m, nk = n - 1 - d.k0 > 0 ? n - 1 - d.k0 : 0;
     if (n < 1 || m < 2 || d.k0 < 0 || d.k0 >= n || d.nstrata < 1 || d.nr < 1 || d.nw < 1 || d.ncodes < 1) {
         PyErr_SetString(PyExc_ValueError, "pf_forward: bad dimensions");
         return NULL;
     }
-    int has_temper = o[8] != Py_None;
-    static const char *names[29] = {"horiz",  "kstep",    "add_pos", "add_psi",  "u_res",   "grip",    "grip_end",
-                                    "late",   "temper",   "r_pos",   "r_code",   "w_pos",   "w_code",  "pos0",
-                                    "psi0",   "lab0",     "which",   "hist",     "hist_w",  "hist_lab", "anc",
-                                    "out_pos", "out_code", "out_prob", "out_yaw", "out_ev", "start_ev", "work",
-                                    "iwork"};
-    Py_ssize_t cnt[29] = {3 * (n - 1 > 0 ? n - 1 : 1), 3 * (n - 1 > 0 ? n - 1 : 1), 3 * m * nk, m * nk, n, n, n, n,
-                          n, 3 * d.nr, d.nr, 3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * n, m * n, m * n,
-                          m * (n - 1 > 0 ? n - 1 : 1), 3 * n, n, n, n, n, d.nstrata,
-                          11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata};
-    Buf b[29];
+    int has_temper = o[10] != Py_None;
+    const Py_ssize_t n1 = n - 1 > 0 ? n - 1 : 1;
+    static const char *names[31] = {
+        "horiz", "kstep",   "normal_pos", "chol",    "ustep",   "add_psi", "u_res",    "grip",     "grip_end",
+        "late",  "temper",  "r_pos",      "r_code",  "w_pos",   "w_code",  "pos0",     "psi0",     "lab0",
+        "which", "hist",    "hist_w",     "hist_lab", "anc",    "out_pos", "out_code", "out_prob", "out_yaw",
+        "out_ev", "start_ev", "work",     "iwork"};
+    Py_ssize_t cnt[31] = {3 * n1, 3 * n1, 3 * m * nk, 9 * nk, 3 * n1, m * nk, n, n, n, n, n, 3 * d.nr, d.nr,
+                          3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * n, m * n, m * n, m * n1, 3 * n, n, n, n, n,
+                          d.nstrata, 11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata};
+    Buf b[31];
     memset(b, 0, sizeof(b));
     int k;
-    for (k = 0; k < 29; k++) {
-        if (k == 8 && !has_temper) continue;
-        if (k == 2 && nk == 0) continue;
-        if (k == 3 && nk == 0) continue;
-        if (get_buf(o[k], &b[k], cnt[k], k >= 17, names[k]) < 0) break;
+    for (k = 0; k < 31; k++) {
+        if (k == 10 && !has_temper) continue;
+        if ((k == 2 || k == 3 || k == 5) && nk == 0) continue;
+        if (get_buf(o[k], &b[k], cnt[k], k >= 19, names[k]) < 0) break;
     }
     PyObject *res = NULL;
-    if (k == 29) {
-        void *p[29];
-        for (int i = 0; i < 29; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
+    if (k == 31) {
+        void *p[31];
+        for (int i = 0; i < 31; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
         int64_t resamples = 0, merged;
         Py_BEGIN_ALLOW_THREADS
         merged = forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
                          p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26],
-                         &resamples, p[27], p[28]);
+                         p[27], p[28], &resamples, p[29], p[30]);
         Py_END_ALLOW_THREADS
         res = Py_BuildValue("LL", (long long)merged, (long long)resamples);
     }
-    release(b, 29);
+    release(b, 31);
     return res;
 }
 

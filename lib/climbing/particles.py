@@ -442,8 +442,7 @@ def run_particle_filter(
     # all process noise up front: one draw, scaled per step, plus the step's along-up part; coordinates
     # first (nk, 3, m), so that the arithmetic below runs along the particles
     nk = max(n - 1 - k0, 0)
-    add_pos = model.chol[k0 : n - 1] @ np.swapaxes(rng.standard_normal((nk, m, 3)), 1, 2)
-    add_pos += model.ustep[k0 : n - 1, :, None]
+    normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
     add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
     u_res = rng.random(n)
     horiz = model.step - model.ustep
@@ -462,7 +461,8 @@ def run_particle_filter(
             n, m, k0, table.size, nowhere, len(strata), r_ids.size, w_ids.size,
             p.hold.radius, p.hold.sigma, p.hold.log_peak, p.hold.log_elsewhere, p.ess_fraction,
             np.ascontiguousarray(horiz) if n > 1 else np.zeros(3), np.ascontiguousarray(model.kstep) if n > 1 else np.zeros(3),
-            add_pos, np.ascontiguousarray(add_psi), u_res, grip.astype(np.int64), grip_end.astype(np.int64),
+            normal_pos, np.ascontiguousarray(model.chol[k0 : n - 1]) if nk else np.zeros(9),
+            np.ascontiguousarray(model.ustep) if n > 1 else np.zeros(3), np.ascontiguousarray(add_psi), u_res, grip.astype(np.int64), grip_end.astype(np.int64),
             late.astype(np.int64), None if temper is None else np.ascontiguousarray(temper, dtype=np.float64),
             np.ascontiguousarray(r_pos, dtype=np.float64), r_code.astype(np.int64),
             np.ascontiguousarray(w_pos, dtype=np.float64), w_code.astype(np.int64),
@@ -476,6 +476,8 @@ def run_particle_filter(
         if len(strata) > 1 and merged_at >= 0:
             strata = [slice(None)]
     else:
+        add_pos = model.chol[k0 : n - 1] @ np.swapaxes(normal_pos, 1, 2)
+        add_pos += model.ustep[k0 : n - 1, :, None]
         k, want = k0, 2
         while k < n:
             nxt = np.searchsorted(grips, k) + want - 1  # the block's last grip
