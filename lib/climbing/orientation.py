@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from sportfusion.climbing._native import native
+
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
@@ -80,6 +82,13 @@ def complementary_filter(
     km = np.where(mag_ok, k_mag, 0.0)
     w = gyr - b
     dt = np.diff(t)
+    ext = native()
+    if ext is not None:  # the loop below in C (the same operations; this loop is its reference)
+        c64 = np.ascontiguousarray
+        out = np.empty((n, 3, 3))
+        ext.complementary(n, c64(fh), c64(mh), c64(w), c64(ka), c64(km), c64(dt), c64(r), c64(upw), c64(mw), out)
+        u, _, vt = np.linalg.svd(out)
+        return u @ vt
     # scalar loop (numpy's per-call overhead dominates 3-vectors): R row-major in r0..r8
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = (float(v) for v in r.ravel())
     ux, uy, uz = (float(v) for v in upw)

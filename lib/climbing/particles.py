@@ -79,6 +79,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.climbing._native import native
 from sportfusion.core.errors import InputError
 from sportfusion.estimators.particles import (
     backward_draws,
@@ -89,20 +90,6 @@ from sportfusion.estimators.particles import (
 )
 
 ELSEWHERE = -1
-
-_UNSET = object()
-_NATIVE: object = _UNSET
-
-
-def _native():  # noqa: ANN202
-    """The C extension (``_pf_c.c``: the forward pass and the backward-simulation paths), or None when it is
-    not built or ``SPORTFUSION_NATIVE=0``; the numpy code below is its reference."""
-    global _NATIVE
-    if _NATIVE is _UNSET:
-        from sportfusion.core.native import load_extension
-
-        _NATIVE = load_extension("sportfusion.climbing._pf_c")
-    return _NATIVE
 
 
 @dataclass(frozen=True)
@@ -453,7 +440,7 @@ def run_particle_filter(
     # for resampling (or where the start hypotheses merge); the block ends there and the next starts from
     # the resampled particles.  A block spans a number of grips: few after a resampling (the next often
     # follows soon), more and more after none.
-    pf_c = _native()
+    pf_c = native()
     if pf_c is not None:  # the same loop, step by step in C (the numpy blocks below are its reference)
         out_code = np.empty(n, dtype=np.int64)
         lab0 = np.searchsorted(table, s_ids[which]).astype(np.int64)
@@ -608,7 +595,7 @@ def _backward(
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
-    pf_c = _native()
+    pf_c = native()
     if pf_c is not None:  # the same draws and test, the whitened distances formed per trajectory in C
         j, cum, u, log_u = backward_draws(w, rng, k0, moves)
         path = np.empty((n - k0, m), dtype=np.int64)

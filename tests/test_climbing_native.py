@@ -1,4 +1,4 @@
-"""The climbing particle filter's C path (``climbing/_pf_c.c``) against its numpy reference.
+"""The climbing particle filter's C path (``climbing/_climbing_c.c``) against its numpy reference.
 
 Both draw the same random numbers, so the filter's outputs agree to rounding and the smoother picks the
 same trajectories; the step-by-step references in ``test_climbing_particles.py`` check whichever path is
@@ -14,28 +14,29 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from sportfusion.climbing import _native
 from sportfusion.climbing import particles as pf
 from sportfusion.climbing.particles import PFParams, PFResult
 
-C = pf._native()
-needs_c = pytest.mark.skipif(C is None, reason="the C extension sportfusion.climbing._pf_c is not built")
+C = _native.native()
+needs_c = pytest.mark.skipif(C is None, reason="the C extension sportfusion.climbing._climbing_c is not built")
 UP = np.array([0.0, 0.0, 1.0])
 
 
 @pytest.fixture
 def engines() -> Iterator[dict]:
     """Run a function with the numpy path and with the C path; the module's choice restored after."""
-    saved = pf._NATIVE
+    saved = _native._NATIVE
 
     def both(fn):  # noqa: ANN001, ANN202
         out = {}
         for name, mod in (("numpy", None), ("c", C)):
-            pf._NATIVE = mod
+            _native._NATIVE = mod
             out[name] = fn()
         return out
 
     yield both
-    pf._NATIVE = saved
+    _native._NATIVE = saved
 
 
 def _same(a: PFResult, b: PFResult, smooth: bool = True) -> None:
@@ -58,7 +59,7 @@ def test_the_extension_is_built_where_a_compiler_is() -> None:
         pytest.skip("no C compiler here")
     if os.environ.get("SPORTFUSION_NATIVE") == "0":
         pytest.skip("SPORTFUSION_NATIVE=0: the fallback is asked for")
-    assert C is not None, "sportfusion.climbing._pf_c is not built: pip install -e . (make .venv/.installed)"
+    assert C is not None, "sportfusion.climbing._climbing_c is not built: pip install -e . (make .venv/.installed)"
 
 
 def _ladder(second_start_x: float = 0.5):
@@ -123,6 +124,22 @@ def test_c_path_equals_numpy_on_a_simulated_trial_with_descent(engines) -> None:
 
 
 @needs_c
+def test_complementary_filter_loop_equals_the_python_loop(engines) -> None:
+    from sportfusion.climbing.orientation import complementary_filter
+
+    rng = np.random.default_rng(5)
+    n = 400
+    t = np.cumsum(rng.uniform(0.008, 0.012, n))
+    acc = rng.normal([0.0, 0.0, 9.81], 2.0, (n, 3))
+    gyr = rng.normal(0.0, 1.5, (n, 3))
+    mag = rng.normal([0.3, 0.0, -0.9], 0.1, (n, 3))
+    mag[50:60] = np.nan  # no magnetometer sample: no field correction there
+    out = engines(lambda: complementary_filter(t, acc, gyr, mag, np.array([0.4, 0.0, -0.9]), UP, 9.81, gyr[0]))
+    assert np.allclose(out["numpy"], out["c"], rtol=0, atol=1e-12)
+    assert np.allclose(out["c"] @ np.swapaxes(out["c"], 1, 2), np.eye(3), atol=1e-12)
+
+
+@needs_c
 def test_bad_dimensions_are_refused() -> None:
     z = np.zeros(3)
     with pytest.raises(ValueError, match="bad dimensions"):
@@ -131,3 +148,5 @@ def test_bad_dimensions_are_refused() -> None:
         C.backward_paths(1, 10, 0, 1, *([z] * 12))
     with pytest.raises(ValueError, match="expected"):  # a wrong length: the C side checks every buffer
         C.backward_paths(3, 2, 0, 1, *([z] * 12))
+    with pytest.raises(ValueError, match="expected"):
+        C.complementary(5, *([z] * 10))

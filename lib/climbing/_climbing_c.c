@@ -1,8 +1,10 @@
-/* The climbing particle filter's forward pass and the backward-simulation paths, as a C extension.
+/* pf-holds' loops as a C extension: the climbing particle filter's forward pass, its backward-simulation
+ * paths and the complementary filter of the transition estimator's initial orientations.
  *
  * sportfusion.climbing.particles.run_particle_filter computes the same in numpy, over blocks of steps
  * (that path stays the reference the tests compare this one with, and the fallback when this optional
- * extension is not built).  Here one loop runs step by step: eq 17's prediction with the process noise
+ * extension is not built); sportfusion.climbing.orientation.complementary_filter likewise.  Here the
+ * particle filter runs step by step: eq 17's prediction with the process noise
  * drawn by the caller, the grip likelihood of eqs 18-22 (nearest hold centre), the weights per start-hold
  * stratum with their evidence, the merge of the strata, systematic resampling and the most likely
  * cluster's outputs.  The random numbers all come from the caller, so both paths draw the same ones.
@@ -433,15 +435,92 @@ static PyObject *py_paths(PyObject *self, PyObject *args) {
     return res;
 }
 
+/* The complementary filter's loop (sportfusion.climbing.orientation.complementary_filter, same operations
+ * in the same order): R_k+1 = R_k Exp((w_k + e_k) dT_k) with the correction e_k = ka_k f_k x R_k^T u +
+ * km_k h_k x R_k^T m (unit specific force f, unit field h, gains 0 where not trusted); rows (n, 9) of R. */
+static void complementary(int64_t n, const double *f, const double *h, const double *w, const double *ka,
+                          const double *km, const double *dt, const double *r_start, const double *up,
+                          const double *mw, double *rows) {
+    double r0 = r_start[0], r1 = r_start[1], r2 = r_start[2], r3 = r_start[3], r4 = r_start[4], r5 = r_start[5];
+    double r6 = r_start[6], r7 = r_start[7], r8 = r_start[8];
+    const double ux = up[0], uy = up[1], uz = up[2], mx = mw[0], my = mw[1], mz = mw[2];
+    memcpy(rows, r_start, 9 * sizeof(double));
+    for (int64_t k = 0; k + 1 < n; k++) {
+        const double fx = f[3 * k], fy = f[3 * k + 1], fz = f[3 * k + 2];
+        const double hx = h[3 * k], hy = h[3 * k + 1], hz = h[3 * k + 2];
+        const double a = ka[k], m_ = km[k], d = dt[k];
+        double bx = r0 * ux + r3 * uy + r6 * uz, by = r1 * ux + r4 * uy + r7 * uz, bz = r2 * ux + r5 * uy + r8 * uz;
+        double cx = r0 * mx + r3 * my + r6 * mz, cy = r1 * mx + r4 * my + r7 * mz, cz = r2 * mx + r5 * my + r8 * mz;
+        double ex = a * (fy * bz - fz * by) + m_ * (hy * cz - hz * cy);
+        double ey = a * (fz * bx - fx * bz) + m_ * (hz * cx - hx * cz);
+        double ez = a * (fx * by - fy * bx) + m_ * (hx * cy - hy * cx);
+        double px = (w[3 * k] + ex) * d, py = (w[3 * k + 1] + ey) * d, pz = (w[3 * k + 2] + ez) * d;
+        double th2 = px * px + py * py + pz * pz, sa, sb;
+        if (th2 < 1e-18) {
+            sa = 1.0, sb = 0.5;
+        } else {
+            double th = sqrt(th2);
+            sa = sin(th) / th, sb = (1.0 - cos(th)) / th2;
+        }
+        double e0 = 1.0 - sb * (py * py + pz * pz), e4 = 1.0 - sb * (px * px + pz * pz);
+        double e8 = 1.0 - sb * (px * px + py * py);
+        double e1 = -sa * pz + sb * px * py, e3 = sa * pz + sb * px * py;
+        double e2 = sa * py + sb * px * pz, e6 = -sa * py + sb * px * pz;
+        double e5 = -sa * px + sb * py * pz, e7 = sa * px + sb * py * pz;
+        double n0 = r0 * e0 + r1 * e3 + r2 * e6, n1 = r0 * e1 + r1 * e4 + r2 * e7, n2 = r0 * e2 + r1 * e5 + r2 * e8;
+        double n3 = r3 * e0 + r4 * e3 + r5 * e6, n4 = r3 * e1 + r4 * e4 + r5 * e7, n5 = r3 * e2 + r4 * e5 + r5 * e8;
+        double n6 = r6 * e0 + r7 * e3 + r8 * e6, n7 = r6 * e1 + r7 * e4 + r8 * e7, n8 = r6 * e2 + r7 * e5 + r8 * e8;
+        r0 = n0, r1 = n1, r2 = n2, r3 = n3, r4 = n4, r5 = n5, r6 = n6, r7 = n7, r8 = n8;
+        double *out = rows + 9 * (k + 1);
+        out[0] = r0, out[1] = r1, out[2] = r2, out[3] = r3, out[4] = r4, out[5] = r5, out[6] = r6, out[7] = r7;
+        out[8] = r8;
+    }
+}
+
+static PyObject *py_complementary(PyObject *self, PyObject *args) {
+    long long n;
+    PyObject *o[10];
+    if (!PyArg_ParseTuple(args, "LOOOOOOOOOO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9]))
+        return NULL;
+    if (n < 1) {
+        PyErr_SetString(PyExc_ValueError, "complementary: bad dimensions (needs n >= 1)");
+        return NULL;
+    }
+    static const char *names[10] = {"f", "h", "w", "ka", "km", "dt", "r0", "up", "m_world", "rows"};
+    const Py_ssize_t n1 = n - 1 > 0 ? n - 1 : 0;
+    Py_ssize_t cnt[10] = {-3 * n1, -3 * n1, -3 * n1, -n1, -n1, n1, 9, 3, 3, 9 * n};
+    Buf b[10];
+    memset(b, 0, sizeof(b));
+    int k;
+    for (k = 0; k < 10; k++) {
+        if (n1 == 0 && k < 6) continue;
+        if (get_buf(o[k], &b[k], cnt[k], k == 9, names[k]) < 0) break;
+    }
+    PyObject *res = NULL;
+    if (k == 10) {
+        void *p[10];
+        for (int i = 0; i < 10; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
+        Py_BEGIN_ALLOW_THREADS
+        complementary(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]);
+        Py_END_ALLOW_THREADS
+        res = Py_None;
+        Py_INCREF(res);
+    }
+    release(b, 10);
+    return res;
+}
+
 static PyMethodDef methods[] = {
+    {"complementary", py_complementary, METH_VARARGS, "The complementary filter's loop (see orientation.py)."},
     {"forward", py_forward, METH_VARARGS, "The climbing particle filter's forward pass (see particles.py)."},
     {"backward_paths", py_paths, METH_VARARGS, "Backward-simulation trajectories of eq 17's transition density."},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "_pf_c", "Compiled climbing particle filter and backward simulation (numpy path's equations).",
+    PyModuleDef_HEAD_INIT, "_climbing_c", "pf-holds' loops in C: particle filter, backward simulation, complementary filter.",
     -1, methods,
 };
 
-PyMODINIT_FUNC PyInit__pf_c(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__climbing_c(void) { return PyModule_Create(&module); }
