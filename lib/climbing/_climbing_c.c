@@ -348,11 +348,13 @@ static void predict_all(int64_t m, const double *xk, const double *hz, const dou
     }
 }
 
-/* -2 log f up to a constant: the whitened squared distance of x_k+1(j) from a prediction */
-static inline double neg2logf(const double *pred, const double *xj, const double *L, double inv_s) {
-    double z0 = (xj[0] - pred[0]) / L[0];
-    double z1 = (xj[1] - pred[1] - L[3] * z0) / L[4];
-    double z2 = (xj[2] - pred[2] - L[6] * z0 - L[7] * z1) / L[8];
+/* -2 log f up to a constant: the whitened squared distance of x_k+1(j) from a prediction (L lower
+ * triangular with its diagonal's inverses id) */
+static inline double neg2logf(const double *pred, const double *xj, const double *L, const double *id,
+                              double inv_s) {
+    double z0 = (xj[0] - pred[0]) * id[0];
+    double z1 = (xj[1] - pred[1] - L[3] * z0) * id[1];
+    double z2 = (xj[2] - pred[2] - L[6] * z0 - L[7] * z1) * id[2];
     double zy = (xj[3] - pred[3]) * inv_s;
     return z0 * z0 + z1 * z1 + z2 * z2 + zy * zy;
 }
@@ -368,13 +370,13 @@ static void backward_paths(int64_t n, int64_t m, int64_t k0, int64_t moves, cons
         int64_t *out = path + r * m;
         const int64_t *ak = anc + k * m;
         const double *ck = cum + r * m, *xk1 = hist + 4 * m * (k + 1), *L = chol + 9 * k;
-        const double inv_s = 1.0 / yaw_sigma[k];
+        const double inv_s = 1.0 / yaw_sigma[k], id[3] = {1.0 / L[0], 1.0 / L[4], 1.0 / L[8]};
         if (moves) predict_all(m, hist + 4 * m * k, horiz + 3 * k, kstep + 3 * k, ustep + 3 * k, pred);
         for (int64_t t = 0; t < m; t++) {
             const int64_t jt = j[t];
             int64_t cur = ak[jt];
             const double *xj = xk1 + 4 * jt;
-            double sc = moves ? neg2logf(pred + 4 * cur, xj, L, inv_s) : 0.0;
+            double sc = moves ? neg2logf(pred + 4 * cur, xj, L, id, inv_s) : 0.0;
             for (int64_t mv = 0; mv < moves; mv++) {
                 const double uu = u[(r * moves + mv) * m + t];
                 /* searchsorted(cum, u, "right"): the first index with cum > u (branch-free halving) */
@@ -387,7 +389,7 @@ static void backward_paths(int64_t n, int64_t m, int64_t k0, int64_t moves, cons
                 }
                 int64_t prop = (base - ck) + (*base <= uu);
                 if (prop > m - 1) prop = m - 1;
-                double sp = neg2logf(pred + 4 * prop, xj, L, inv_s);
+                double sp = neg2logf(pred + 4 * prop, xj, L, id, inv_s);
                 if (sp - sc < thr[(r * moves + mv) * m + t]) cur = prop, sc = sp;
             }
             out[t] = cur;
