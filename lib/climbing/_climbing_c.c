@@ -439,7 +439,8 @@ static PyObject *py_paths(PyObject *self, PyObject *args) {
 
 /* The complementary filter's loop (sportfusion.climbing.orientation.complementary_filter, same operations
  * in the same order): R_k+1 = R_k Exp((w_k + e_k) dT_k) with the correction e_k = ka_k f_k x R_k^T u +
- * km_k h_k x R_k^T m (unit specific force f, unit field h, gains 0 where not trusted); rows (n, 9) of R. */
+ * km_k h_k x R_k^T m (unit specific force f, unit field h, gains 0 where not trusted); rows (n, 9) of R,
+ * each made orthonormal at the end. */
 static void complementary(int64_t n, const double *f, const double *h, const double *w, const double *ka,
                           const double *km, const double *dt, const double *r_start, const double *up,
                           const double *mw, double *rows) {
@@ -476,6 +477,22 @@ static void complementary(int64_t n, const double *f, const double *h, const dou
         double *out = rows + 9 * (k + 1);
         out[0] = r0, out[1] = r1, out[2] = r2, out[3] = r3, out[4] = r4, out[5] = r5, out[6] = r6, out[7] = r7;
         out[8] = r8;
+    }
+    /* the rotations nearest to the rows (rounding drift over thousands of products): the polar factor by
+     * Newton's iteration R <- (R + R^-T) / 2, quadratic from a matrix this close to a rotation (what the
+     * numpy path gets from an SVD, u vt) */
+    for (int64_t k = 0; k < n; k++) {
+        double *a = rows + 9 * k;
+        for (int it = 0; it < 2; it++) {
+            /* R^-T = cofactor(R) / det(R) */
+            double c0 = a[4] * a[8] - a[5] * a[7], c1 = a[5] * a[6] - a[3] * a[8], c2 = a[3] * a[7] - a[4] * a[6];
+            double c3 = a[2] * a[7] - a[1] * a[8], c4 = a[0] * a[8] - a[2] * a[6], c5 = a[1] * a[6] - a[0] * a[7];
+            double c6 = a[1] * a[5] - a[2] * a[4], c7 = a[2] * a[3] - a[0] * a[5], c8 = a[0] * a[4] - a[1] * a[3];
+            double det = a[0] * c0 + a[1] * c1 + a[2] * c2, h = 0.5 / det;
+            a[0] = 0.5 * a[0] + h * c0, a[1] = 0.5 * a[1] + h * c1, a[2] = 0.5 * a[2] + h * c2;
+            a[3] = 0.5 * a[3] + h * c3, a[4] = 0.5 * a[4] + h * c4, a[5] = 0.5 * a[5] + h * c5;
+            a[6] = 0.5 * a[6] + h * c6, a[7] = 0.5 * a[7] + h * c7, a[8] = 0.5 * a[8] + h * c8;
+        }
     }
 }
 

@@ -87,8 +87,7 @@ def complementary_filter(
         c64 = np.ascontiguousarray
         out = np.empty((n, 3, 3))
         ext.complementary(n, c64(fh), c64(mh), c64(w), c64(ka), c64(km), c64(dt), c64(r), c64(upw), c64(mw), out)
-        u, _, vt = np.linalg.svd(out)
-        return u @ vt
+        return out  # re-orthonormalised there (the polar factor, as the SVD below)
     # scalar loop (numpy's per-call overhead dominates 3-vectors): R row-major in r0..r8
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = (float(v) for v in r.ravel())
     ux, uy, uz = (float(v) for v in upw)
