@@ -437,6 +437,77 @@ static PyObject *py_paths(PyObject *self, PyObject *args) {
     return res;
 }
 
+/* The smoother's outputs per step from the trajectories' particles path (n - k0, m): each particle's weight
+ * is the fraction of the trajectories through it; the most likely cluster (ties: the lowest code), its
+ * probability and its weighted mean position and yaw (particles.py's _cluster_rows on path_weights). */
+static void path_clusters(int64_t n, int64_t m, int64_t k0, int64_t nc, const int64_t *path, const double *hist,
+                          const int64_t *hist_lab, double *out_pos, int64_t *out_code, double *out_prob,
+                          double *out_yaw, double *w, double *sums) {
+    const double inv_m = 1.0 / (double)m;
+    for (int64_t k = k0; k < n; k++) {
+        const int64_t *pk = path + (k - k0) * m, *lab = hist_lab + k * m;
+        const double *x = hist + 4 * m * k;
+        for (int64_t i = 0; i < m; i++) w[i] = 0.0;
+        for (int64_t t = 0; t < m; t++) w[pk[t]] += 1.0;
+        for (int64_t i = 0; i < m; i++) w[i] *= inv_m;
+        memset(sums, 0, nc * sizeof(double));
+        for (int64_t i = 0; i < m; i++) sums[lab[i]] += w[i];
+        int64_t best = 0;
+        for (int64_t c = 1; c < nc; c++)
+            if (sums[c] > sums[best]) best = c;
+        double prob = sums[best], mx = 0.0, my = 0.0, mz = 0.0, myaw = 0.0;
+        for (int64_t i = 0; i < m; i++)
+            if (lab[i] == best && w[i] > 0.0) {
+                double wi = w[i] / prob;
+                mx += wi * x[4 * i], my += wi * x[4 * i + 1], mz += wi * x[4 * i + 2], myaw += wi * x[4 * i + 3];
+            }
+        out_pos[3 * k] = mx, out_pos[3 * k + 1] = my, out_pos[3 * k + 2] = mz;
+        out_code[k] = best, out_prob[k] = prob, out_yaw[k] = myaw;
+    }
+}
+
+static PyObject *py_path_clusters(PyObject *self, PyObject *args) {
+    long long n, m, k0, nc;
+    PyObject *o[7];
+    if (!PyArg_ParseTuple(args, "LLLLOOOOOOO", &n, &m, &k0, &nc, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6]))
+        return NULL;
+    if (n < 1 || m < 1 || k0 < 0 || k0 >= n || nc < 1) {
+        PyErr_SetString(PyExc_ValueError, "path_clusters: bad dimensions");
+        return NULL;
+    }
+    static const char *names[7] = {"path", "hist", "hist_lab", "out_pos", "out_code", "out_prob", "out_yaw"};
+    Py_ssize_t cnt[7] = {(n - k0) * m, 4 * n * m, n * m, 3 * n, n, n, n};
+    Buf b[7];
+    memset(b, 0, sizeof(b));
+    int k;
+    for (k = 0; k < 7; k++)
+        if (get_buf(o[k], &b[k], cnt[k], k >= 3, names[k]) < 0) break;
+    PyObject *res = NULL;
+    double *work = k == 7 ? PyMem_RawMalloc((m + nc) * sizeof(double)) : NULL;
+    if (k == 7 && !work) PyErr_NoMemory();
+    if (work) {
+        /* codes must index the sums: checked here, the loop trusts them */
+        const int64_t *lab = b[2].view.buf;
+        int ok = 1;
+        for (Py_ssize_t i = k0 * m; i < n * m && ok; i++) ok = lab[i] >= 0 && lab[i] < nc;
+        const int64_t *path = b[0].view.buf;
+        for (Py_ssize_t i = 0; i < (n - k0) * m && ok; i++) ok = path[i] >= 0 && path[i] < m;
+        if (!ok) {
+            PyErr_SetString(PyExc_ValueError, "path_clusters: a label or particle index out of range");
+        } else {
+            Py_BEGIN_ALLOW_THREADS
+            path_clusters(n, m, k0, nc, path, b[1].view.buf, lab, b[3].view.buf, b[4].view.buf, b[5].view.buf,
+                          b[6].view.buf, work, work + m);
+            Py_END_ALLOW_THREADS
+            res = Py_None;
+            Py_INCREF(res);
+        }
+        PyMem_RawFree(work);
+    }
+    release(b, 7);
+    return res;
+}
+
 /* The complementary filter's loop (sportfusion.climbing.orientation.complementary_filter, same operations
  * in the same order): R_k+1 = R_k Exp((w_k + e_k) dT_k) with the correction e_k = ka_k f_k x R_k^T u +
  * km_k h_k x R_k^T m (unit specific force f, unit field h, gains 0 where not trusted); rows (n, 9) of R,
@@ -531,6 +602,7 @@ static PyObject *py_complementary(PyObject *self, PyObject *args) {
 }
 
 static PyMethodDef methods[] = {
+    {"path_clusters", py_path_clusters, METH_VARARGS, "The smoother's most likely cluster per step from its paths."},
     {"complementary", py_complementary, METH_VARARGS, "The complementary filter's loop (see orientation.py)."},
     {"forward", py_forward, METH_VARARGS, "The climbing particle filter's forward pass (see particles.py)."},
     {"backward_paths", py_paths, METH_VARARGS, "Backward-simulation trajectories of eq 17's transition density."},

@@ -85,7 +85,6 @@ from sportfusion.estimators.particles import (
     backward_draws,
     backward_simulation,
     backward_simulation_gaussian,
-    path_weights,
     systematic_resample,
 )
 
@@ -557,23 +556,55 @@ def run_particle_filter(
         if split:  # the smoother follows the start hold with the larger evidence (up to the merge)
             rows = slice(k0, n if merged_at < 0 else merged_at + 1)
             hist_w[rows, which != int(np.argmax(start_ev))] = 0.0  # the winner's weights sum to 1
-        if p.smoother == "ffbsm":
-            ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
-        elif p.smoother == "backward":
-            ws = _backward(hist, hist_w, anc, model, k0, rng, p.smoother_moves)
-        else:
+        if p.smoother not in ("ffbsm", "backward"):
             raise InputError(f"smoother {p.smoother!r} is not backward or ffbsm")
         sp = np.full((n, 3), np.nan)
         sl = np.full(n, -2, dtype=np.int64)
         sprob = np.full(n, np.nan)
         syaw = np.full(n, np.nan)
         rows = slice(k0, n)
-        sp[rows], code, sprob[rows], syaw[rows] = _cluster_rows(
-            ws[rows], hist_lab[rows], hist_pos[rows], hist_psi[rows], table.size
-        )
+        pf_c = native()
+        if p.smoother == "backward" and pf_c is not None and n - 1 > k0:
+            # the same draws, tests and clusters in C: the trajectories' particles, then their clusters per step
+            path = _backward_path_c(pf_c, hist, hist_w, anc, model, k0, rng, p.smoother_moves)
+            code = np.empty(n, dtype=np.int64)
+            pf_c.path_clusters(n, m, k0, table.size, path, hist, hist_lab, sp, code, sprob, syaw)
+            code = code[rows]
+        else:
+            if p.smoother == "ffbsm":
+                ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
+            else:
+                ws = _backward(hist, hist_w, anc, model, k0, rng, p.smoother_moves)
+            sp[rows], code, sprob[rows], syaw[rows] = _cluster_rows(
+                ws[rows], hist_lab[rows], hist_pos[rows], hist_psi[rows], table.size
+            )
         sl[rows] = table[code]
         res.smooth_pos, res.smooth_label, res.smooth_prob, res.smooth_yaw = sp, sl, sprob, syaw
     return res
+
+
+def _backward_path_c(  # noqa: ANN202
+    ext,  # noqa: ANN001
+    state: np.ndarray,
+    w: np.ndarray,
+    anc: np.ndarray,
+    model: _Model,
+    k0: int,
+    rng: np.random.Generator,
+    moves: int,
+):
+    """The trajectories' particles (n - k0, m) of :func:`_backward`'s backward simulation, in C (the extension
+    ``ext``): the same draws and acceptance tests, the whitened distances formed per trajectory."""
+    n, m = w.shape
+    j, cum, u, log_u = backward_draws(w, rng, k0, moves)
+    path = np.empty((n - k0, m), dtype=np.int64)
+    c64 = np.ascontiguousarray
+    ext.backward_paths(
+        n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
+        c64(state), c64(model.step - model.ustep), c64(model.kstep), c64(model.ustep),
+        c64(model.chol), c64(model.yaw_sigma), path,
+    )  # fmt: skip
+    return path
 
 
 def _backward(
@@ -595,17 +626,6 @@ def _backward(
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
-    pf_c = native()
-    if pf_c is not None:  # the same draws and test, the whitened distances formed per trajectory in C
-        j, cum, u, log_u = backward_draws(w, rng, k0, moves)
-        path = np.empty((n - k0, m), dtype=np.int64)
-        c64 = np.ascontiguousarray
-        pf_c.backward_paths(
-            n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
-            c64(state), c64(model.step - model.ustep), c64(model.kstep), c64(model.ustep),
-            c64(model.chol), c64(model.yaw_sigma), path,
-        )  # fmt: skip
-        return path_weights(path, n, k0)
     steps = np.stack((model.step - model.ustep, model.kstep, model.ustep), axis=1)  # (n-1, 3, 3)
     a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
     b = np.empty((n, m, 4))
