@@ -1,11 +1,27 @@
-"""Block cyclic reduction (estimators.blocktri) against dense linear algebra."""
+"""Block-tridiagonal systems (estimators.blocktri) against dense linear algebra: the numpy cyclic reduction
+and, where it is built, the C block Cholesky."""
 
 from __future__ import annotations
+
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
 
-from sportfusion.estimators import blocktri
+from sportfusion.estimators import _banded, blocktri
+
+C = _banded.native()
+
+
+@pytest.fixture(autouse=True, params=["numpy", "c"])
+def engine(request: pytest.FixtureRequest) -> Iterator[str]:
+    """Every test with the cyclic reduction (numpy) and with the C block Cholesky."""
+    if request.param == "c" and C is None:
+        pytest.skip("the C extension sportfusion.estimators._banded_c is not built")
+    saved = _banded._NATIVE
+    _banded._NATIVE = C if request.param == "c" else None
+    yield request.param
+    _banded._NATIVE = saved
 
 
 def _system(n: int, b: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -28,6 +44,7 @@ def test_solve_and_diagonal_of_the_inverse_match_dense(n: int) -> None:
     d, e, a = _system(n, b, seed=n)
     assert np.linalg.eigvalsh(a).min() > 0
     f = blocktri.factor(d, e)
+    assert isinstance(f, blocktri.BlockCholesky) == (_banded._NATIVE is not None)
     rng = np.random.default_rng(0)
     r = rng.normal(size=(n, b, 3))
     x = blocktri.solve(f, r)
@@ -69,3 +86,27 @@ def test_bordered_solve_and_inverse_blocks_match_dense(n: int) -> None:
         sl = slice(k * b, (k + 1) * b)
         assert np.allclose(g[k], inv[sl, sl], rtol=1e-10, atol=1e-13)
         assert np.allclose(gb[k], inv[sl, n * b :], rtol=1e-10, atol=1e-13)
+
+
+def test_the_two_factorisations_agree_on_a_large_system() -> None:
+    if C is None:
+        pytest.skip("the C extension sportfusion.estimators._banded_c is not built")
+    d, e, _ = _system(300, 6, seed=3)
+    r = np.random.default_rng(1).normal(size=(300, 6, 2))
+    out = {}
+    for name, mod in (("numpy", None), ("c", C)):
+        _banded._NATIVE = mod
+        f = blocktri.factor(d, e)
+        out[name] = (blocktri.solve(f, r), blocktri.diagonal_of_inverse(f))
+    assert np.allclose(out["numpy"][0], out["c"][0], rtol=1e-10, atol=1e-13)
+    assert np.allclose(out["numpy"][1], out["c"][1], rtol=1e-10, atol=1e-14)
+
+
+def test_the_c_kernels_check_their_arguments() -> None:
+    if C is None:
+        pytest.skip("the C extension sportfusion.estimators._banded_c is not built")
+    z = np.zeros(36)
+    with pytest.raises(ValueError, match="bad dimensions"):
+        C.bt_factor(1, 33, z, z, z, z)
+    with pytest.raises(ValueError, match="expected"):
+        C.bt_solve(2, 6, 1, z, z, np.zeros(12))

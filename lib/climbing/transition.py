@@ -325,7 +325,7 @@ def solve_step(ne: Normal, lam: float) -> tuple[np.ndarray, np.ndarray, tuple]:
 
 
 def velocity_covariance(
-    ne: Normal, xb: np.ndarray, s: np.ndarray, factored: blocktri.CyclicReduction | None = None
+    ne: Normal, xb: np.ndarray, s: np.ndarray, factored: blocktri.CyclicReduction | blocktri.BlockCholesky | None = None
 ) -> np.ndarray:
     """3 x 3 velocity blocks on the diagonal of ``H^-1`` (eq 13), shape (n, 3, 3) [(m/s)^2].
 

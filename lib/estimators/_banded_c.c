@@ -551,7 +551,239 @@ done:
     return res;
 }
 
+/* ---- block-tridiagonal SPD systems (sportfusion.estimators.blocktri) ------------------------- */
+
+/* A with diagonal blocks D_k and A[k, k+1] = E_k (b x b, row-major) as A = L L^T, L block lower bidiagonal
+ * with diagonal blocks L_k (lower Cholesky factors of the Schur complements S_k = D_k - W_k-1^T W_k-1) and
+ * sub-diagonal blocks W_k^T, W_k = L_k^-1 E_k.  Sequential, O(n b^3). */
+#define BT_MAX 32
+
+static int bt_chol(double *a, int b) { /* lower Cholesky in place (the upper part zeroed); -1: not PD */
+    for (int j = 0; j < b; j++) {
+        double d = a[j * b + j];
+        for (int k = 0; k < j; k++) d -= a[j * b + k] * a[j * b + k];
+        if (!(d > 0.0)) return -1;
+        d = sqrt(d);
+        a[j * b + j] = d;
+        for (int i = j + 1; i < b; i++) {
+            double v = a[i * b + j];
+            for (int k = 0; k < j; k++) v -= a[i * b + k] * a[j * b + k];
+            a[i * b + j] = v / d;
+        }
+        for (int i = 0; i < j; i++) a[i * b + j] = 0.0;
+    }
+    return 0;
+}
+
+static void bt_fwd(const double *l, int b, double *x, int c) { /* x <- L^-1 x, x (b x c) */
+    for (int i = 0; i < b; i++)
+        for (int q = 0; q < c; q++) {
+            double v = x[i * c + q];
+            for (int k = 0; k < i; k++) v -= l[i * b + k] * x[k * c + q];
+            x[i * c + q] = v / l[i * b + i];
+        }
+}
+
+static void bt_bwd(const double *l, int b, double *x, int c) { /* x <- L^-T x, x (b x c) */
+    for (int i = b - 1; i >= 0; i--)
+        for (int q = 0; q < c; q++) {
+            double v = x[i * c + q];
+            for (int k = i + 1; k < b; k++) v -= l[k * b + i] * x[k * c + q];
+            x[i * c + q] = v / l[i * b + i];
+        }
+}
+
+/* returns -1, or the first block whose Schur complement is not positive definite */
+static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *e, double *l, double *w) {
+    const int bb = b * b;
+    for (Py_ssize_t k = 0; k < n; k++) {
+        double *lk = l + k * bb;
+        memcpy(lk, d + k * bb, bb * sizeof(double));
+        if (k > 0) { /* S_k = D_k - W^T W (lower triangle used) */
+            const double *wp = w + (k - 1) * bb;
+            for (int i = 0; i < b; i++)
+                for (int j = 0; j <= i; j++) {
+                    double v = 0.0;
+                    for (int q = 0; q < b; q++) v += wp[q * b + i] * wp[q * b + j];
+                    lk[i * b + j] -= v;
+                }
+        }
+        if (bt_chol(lk, b) < 0) return k;
+        if (k + 1 < n) {
+            memcpy(w + k * bb, e + k * bb, bb * sizeof(double));
+            bt_fwd(lk, b, w + k * bb, b);
+        }
+    }
+    return -1;
+}
+
+static void bt_solve(Py_ssize_t n, int b, int c, const double *l, const double *w, double *x) {
+    const int bb = b * b, bc = b * c;
+    for (Py_ssize_t k = 0; k < n; k++) { /* y_k = L_k^-1 (r_k - W_k-1^T y_k-1) */
+        double *xk = x + k * bc;
+        if (k > 0) {
+            const double *wp = w + (k - 1) * bb, *yp = xk - bc;
+            for (int i = 0; i < b; i++)
+                for (int q = 0; q < c; q++) {
+                    double v = 0.0;
+                    for (int j = 0; j < b; j++) v += wp[j * b + i] * yp[j * c + q];
+                    xk[i * c + q] -= v;
+                }
+        }
+        bt_fwd(l + k * bb, b, xk, c);
+    }
+    for (Py_ssize_t k = n - 1; k >= 0; k--) { /* x_k = L_k^-T (y_k - W_k x_k+1) */
+        double *xk = x + k * bc;
+        if (k + 1 < n) {
+            const double *wk = w + k * bb, *xn = xk + bc;
+            for (int i = 0; i < b; i++)
+                for (int q = 0; q < c; q++) {
+                    double v = 0.0;
+                    for (int j = 0; j < b; j++) v += wk[i * b + j] * xn[j * c + q];
+                    xk[i * c + q] -= v;
+                }
+        }
+        bt_bwd(l + k * bb, b, xk, c);
+    }
+}
+
+/* the diagonal blocks of A^-1: G_n-1 = S_n-1^-1, G_k = L_k^-T (I + W_k G_k+1 W_k^T) L_k^-1 */
+static void bt_diag_inverse(Py_ssize_t n, int b, const double *l, const double *w, double *g) {
+    const int bb = b * b;
+    double li[BT_MAX * BT_MAX], m[BT_MAX * BT_MAX], t[BT_MAX * BT_MAX];
+    for (Py_ssize_t k = n - 1; k >= 0; k--) {
+        for (int i = 0; i < bb; i++) li[i] = 0.0;
+        for (int i = 0; i < b; i++) li[i * b + i] = 1.0;
+        bt_fwd(l + k * bb, b, li, b); /* L_k^-1 */
+        for (int i = 0; i < bb; i++) m[i] = 0.0;
+        for (int i = 0; i < b; i++) m[i * b + i] = 1.0;
+        if (k + 1 < n) { /* m = I + W_k G_k+1 W_k^T */
+            const double *wk = w + k * bb, *gn = g + (k + 1) * bb;
+            for (int i = 0; i < b; i++)
+                for (int j = 0; j < b; j++) {
+                    double v = 0.0;
+                    for (int q = 0; q < b; q++) v += wk[i * b + q] * gn[q * b + j];
+                    t[i * b + j] = v;
+                }
+            for (int i = 0; i < b; i++)
+                for (int j = 0; j < b; j++) {
+                    double v = 0.0;
+                    for (int q = 0; q < b; q++) v += t[i * b + q] * wk[j * b + q];
+                    m[i * b + j] += v;
+                }
+        }
+        /* g_k = li^T m li */
+        for (int i = 0; i < b; i++)
+            for (int j = 0; j < b; j++) {
+                double v = 0.0;
+                for (int q = 0; q < b; q++) v += m[i * b + q] * li[q * b + j];
+                t[i * b + j] = v;
+            }
+        double *gk = g + k * bb;
+        for (int i = 0; i < b; i++)
+            for (int j = 0; j < b; j++) {
+                double v = 0.0;
+                for (int q = 0; q < b; q++) v += li[q * b + i] * t[q * b + j];
+                gk[i * b + j] = v;
+            }
+        for (int i = 0; i < b; i++) /* exactly symmetric */
+            for (int j = 0; j < i; j++) gk[i * b + j] = gk[j * b + i] = 0.5 * (gk[i * b + j] + gk[j * b + i]);
+    }
+}
+
+static const char doc_bt_factor[] = "bt_factor(n, b, d, e, l, w) -> -1, or the first block that is not positive "
+                                    "definite: block Cholesky of a block-tridiagonal matrix (blocktri).";
+static const char doc_bt_solve[] = "bt_solve(n, b, c, l, w, x): x (n, b, c) <- A^-1 x in place (blocktri).";
+static const char doc_bt_diag_inverse[] = "bt_diag_inverse(n, b, l, w, g): the diagonal blocks of A^-1 (blocktri).";
+
+static int bt_dims(Py_ssize_t n, int b, int c) {
+    if (n < 1 || b < 1 || b > BT_MAX || c < 1) {
+        PyErr_Format(PyExc_ValueError, "block-tridiagonal: bad dimensions (n %zd, b %d, c %d; b at most %d)", n, b,
+                     c, BT_MAX);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_bt_factor(PyObject *self, PyObject *args) {
+    Py_ssize_t n;
+    int b;
+    PyObject *o[4];
+    if (!PyArg_ParseTuple(args, "niOOOO", &n, &b, &o[0], &o[1], &o[2], &o[3]) || bt_dims(n, b, 1) < 0) return NULL;
+    const Py_ssize_t bb = (Py_ssize_t)b * b, n1 = n > 1 ? n - 1 : 0;
+    Buf bufs[4];
+    memset(bufs, 0, sizeof(bufs));
+    Py_ssize_t cnt[4] = {n * bb, n1 * bb, n * bb, n1 * bb};
+    static const char *names[4] = {"bt_factor d", "bt_factor e", "bt_factor l", "bt_factor w"};
+    int k;
+    for (k = 0; k < 4; k++)
+        if (get_buf(o[k], &bufs[k], 8, cnt[k], k >= 2, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 4) {
+        Py_ssize_t bad;
+        Py_BEGIN_ALLOW_THREADS
+        bad = bt_factor(n, b, bufs[0].view.buf, bufs[1].view.buf, bufs[2].view.buf, bufs[3].view.buf);
+        Py_END_ALLOW_THREADS
+        res = PyLong_FromSsize_t(bad);
+    }
+    release(bufs, 4);
+    return res;
+}
+
+static PyObject *py_bt_solve(PyObject *self, PyObject *args) {
+    Py_ssize_t n;
+    int b, c;
+    PyObject *o[3];
+    if (!PyArg_ParseTuple(args, "niiOOO", &n, &b, &c, &o[0], &o[1], &o[2]) || bt_dims(n, b, c) < 0) return NULL;
+    const Py_ssize_t bb = (Py_ssize_t)b * b, n1 = n > 1 ? n - 1 : 0;
+    Buf bufs[3];
+    memset(bufs, 0, sizeof(bufs));
+    Py_ssize_t cnt[3] = {n * bb, n1 * bb, n * b * c};
+    static const char *names[3] = {"bt_solve l", "bt_solve w", "bt_solve x"};
+    int k;
+    for (k = 0; k < 3; k++)
+        if (get_buf(o[k], &bufs[k], 8, cnt[k], k == 2, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 3) {
+        Py_BEGIN_ALLOW_THREADS
+        bt_solve(n, b, c, bufs[0].view.buf, bufs[1].view.buf, bufs[2].view.buf);
+        Py_END_ALLOW_THREADS
+        res = Py_None;
+        Py_INCREF(res);
+    }
+    release(bufs, 3);
+    return res;
+}
+
+static PyObject *py_bt_diag_inverse(PyObject *self, PyObject *args) {
+    Py_ssize_t n;
+    int b;
+    PyObject *o[3];
+    if (!PyArg_ParseTuple(args, "niOOO", &n, &b, &o[0], &o[1], &o[2]) || bt_dims(n, b, 1) < 0) return NULL;
+    const Py_ssize_t bb = (Py_ssize_t)b * b, n1 = n > 1 ? n - 1 : 0;
+    Buf bufs[3];
+    memset(bufs, 0, sizeof(bufs));
+    Py_ssize_t cnt[3] = {n * bb, n1 * bb, n * bb};
+    static const char *names[3] = {"bt_diag_inverse l", "bt_diag_inverse w", "bt_diag_inverse g"};
+    int k;
+    for (k = 0; k < 3; k++)
+        if (get_buf(o[k], &bufs[k], 8, cnt[k], k == 2, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 3) {
+        Py_BEGIN_ALLOW_THREADS
+        bt_diag_inverse(n, b, bufs[0].view.buf, bufs[1].view.buf, bufs[2].view.buf);
+        Py_END_ALLOW_THREADS
+        res = Py_None;
+        Py_INCREF(res);
+    }
+    release(bufs, 3);
+    return res;
+}
+
 static PyMethodDef methods[] = {
+    {"bt_factor", py_bt_factor, METH_VARARGS, doc_bt_factor},
+    {"bt_solve", py_bt_solve, METH_VARARGS, doc_bt_solve},
+    {"bt_diag_inverse", py_bt_diag_inverse, METH_VARARGS, doc_bt_diag_inverse},
     {"inverse_bands", py_inverse_bands, METH_VARARGS, doc_inverse_bands},
     {"minv_diag", py_minv_diag, METH_VARARGS, doc_minv_diag},
     {"reinsch", py_reinsch, METH_VARARGS, doc_reinsch},
@@ -562,7 +794,8 @@ static PyMethodDef methods[] = {
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_banded_c",
-    "Compiled smoothing-spline kernels (banded LDL^T solve, selected inverse, evaluation, arc length).", -1,
+    "Compiled banded kernels: the smoothing spline's (banded LDL^T solve, selected inverse, evaluation, arc length) "
+    "and block-tridiagonal SPD systems (block Cholesky, solve, diagonal of the inverse).", -1,
     methods,
 };
 
