@@ -44,9 +44,9 @@
 /* a row of the Cholesky factor with the gain's right-hand side beside it (chol_solve) */
 #define NW (N + 10)
 
-/* small work arrays are cleared by copying zeros: GCC clears them with rep stos otherwise, whose start-up costs
-   more than the clearing */
-static const double ZEROS[10 * A_HI];
+/* vectors of N are cleared by copying zeros: GCC clears them with rep stos otherwise, whose start-up costs more
+   than the clearing */
+static const double ZEROS[N];
 #define ZERO(a) memcpy(a, ZEROS, sizeof(a))
 
 typedef struct {
@@ -135,7 +135,8 @@ HOT static void rk4(const double *x, const double *u0, const double *u1, double 
 HOT static void phi_qd(const double *x, const double *u, double dt, double g0, const double *mno, const double *qd,
                    double Phi[10][N], double Qd[10][10]) {
     double A[10][A_HI], F[10][6], G[10][6], M[3][3], D[4][3][3];
-    ZERO(A);
+    for (int i = 0; i < 10; i++) /* columns 0-2 are never read */
+        for (int j = A_LO; j < A_HI; j++) A[i][j] = 0.0;
     mbo(x + 6, M);
     dmdq(x + 6, D);
     const double *v = x + 3;
@@ -169,7 +170,8 @@ HOT static void phi_qd(const double *x, const double *u, double dt, double g0, c
         A[8][10 + j] = -0.5 * xi2[j];
         A[9][10 + j] = -0.5 * xi3[j];
     }
-    ZERO(F);
+    for (int i = 0; i < 10; i++)
+        for (int j = 0; j < 6; j++) F[i][j] = 0.0;
     for (int i = 3; i < 10; i++)
         for (int j = 0; j < 3; j++) F[i][j] = A[i][10 + j];
     for (int i = 0; i < 3; i++) F[3 + i][3 + i] = -1.0;
@@ -178,14 +180,14 @@ HOT static void phi_qd(const double *x, const double *u, double dt, double g0, c
        leaves every sum as the dense one (same order, the same additions of nonzero terms). */
     double h2 = 0.5 * dt * dt;
     for (int i = 0; i < 10; i++) {
-        double a2[A_HI]; /* row i of A^2, summed over m in order as vector updates */
-        for (int j = A_LO; j < A_HI; j++) a2[j] = 0.0;
-        for (int m = A_LO; m < 10; m++) {
-            double a = A[i][m];
-            for (int j = A_LO; j < A_HI; j++) a2[j] += a * A[m][j];
-        }
+        double a[10]; /* row i of A^2: the sums over m (constant length, unrolled) side by side across j */
+        for (int m = A_LO; m < 10; m++) a[m] = A[i][m];
         for (int j = 0; j < A_LO; j++) Phi[i][j] = 0.0;
-        for (int j = A_LO; j < A_HI; j++) Phi[i][j] = A[i][j] * dt + h2 * a2[j];
+        for (int j = A_LO; j < A_HI; j++) {
+            double a2 = 0.0;
+            for (int m = A_LO; m < 10; m++) a2 += a[m] * A[m][j];
+            Phi[i][j] = A[i][j] * dt + h2 * a2;
+        }
         for (int j = A_HI; j < N; j++) Phi[i][j] = 0.0;
         Phi[i][i] += 1.0;
     }
@@ -334,8 +336,15 @@ HOT static int chol_solve(double A[N][N], double R[N][10], double U[N][NW]) {
         for (int i = j + 1; i < N; i++) U[j][i] = W[j][i] / d;
         for (int i = N; i < NW; i++) U[j][i] = W[j][i] * rd;
         for (int k = j + 1; k < N; k++) {
+            /* from the multiple of 4 at or below k: whole vectors of 4 (the extra entries below the diagonal
+               are never read; U's are zeros) */
             double f = U[j][k];
-            for (int i = k; i < NW; i++) W[k][i] -= f * U[j][i];
+            for (int i = k & ~3; i < NW; i += 4) {
+                W[k][i] -= f * U[j][i];
+                W[k][i + 1] -= f * U[j][i + 1];
+                W[k][i + 2] -= f * U[j][i + 2];
+                W[k][i + 3] -= f * U[j][i + 3];
+            }
         }
     }
     return 1;
@@ -424,10 +433,11 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     double rzu = par[20];
     /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
     int keep = smooth || par[21] != 0.0;
-    double P[N][N], Pn[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
+    double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
+    double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
     double x[N], xn[N], xp[N], h[N];
     memcpy(x, x0, sizeof(x));
-    memcpy(P, P0, sizeof(P));
+    memcpy(Pa, P0, sizeof(Pa));
     *phase = 0;
     for (Py_ssize_t k = 0; k < n; k++) {
         double *rk = resid + NRES * k;
@@ -519,7 +529,9 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             phi_qd(x, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
             mirror(P);
             predict_cov(P, Phi, Qd, Pn, Tf);
-            memcpy(P, Pn, sizeof(P));
+            double(*Pt)[N] = P;
+            P = Pn;
+            Pn = Pt;
             if (!pd_diag(P)) {
                 *phase = 1;
                 return k + 1;
