@@ -3,7 +3,8 @@
 :mod:`sportfusion.skijump._ski_c` (C, built by ``setup.py`` as an optional extension) imports in about
 a millisecond; numba's import and the building of its target context when the first cached kernel is
 loaded cost about 0.7 s of CPU per ``rts-smooth`` run -- more than smoothing a 60k-step session.
-Both run the same equations in the same order (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`);
+Both run the same equations (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`; they differ in the last
+bits: numba re-associates sums, the C kernel's x86-64-v3 clone fuses multiply-adds);
 without the extension (no C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the environment)
 the numba kernel does the work.  This module also holds the layout both share (no numba import here).
 """
