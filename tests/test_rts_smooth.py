@@ -267,6 +267,26 @@ def test_compiled_engine_equals_reference_engine(engine: str) -> None:
         np.testing.assert_allclose(a.residuals[k], b.residuals[k], rtol=0, atol=1e-9)
 
 
+@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_c_forward_run_without_filtered_covariances() -> None:
+    """A forward run that keeps no covariances (the start window's) gives the same states and residuals."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(passes=1)
+    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
+    x0, P0 = R.initial_state(inp, cfg)
+    kept = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=False)
+    assert kept[2].shape == (0, 253)  # no filtered covariances
+    full = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
+    np.testing.assert_array_equal(kept[0], full[0])
+    for k in full[3]:
+        np.testing.assert_array_equal(kept[3][k], full[3][k])
+
+
 @pytest.mark.slow
 def test_relinearisation_passes_recover_a_bad_start():
     """Seed 0 draws a gyro bias of 0.11 rad/s: one EKF pass locks onto a wrong heading, the passes do not."""

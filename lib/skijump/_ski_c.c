@@ -2,10 +2,14 @@
  *
  * Why C as well as numba: rts-smooth pays numba's import and the building of its CPU target context
  * on every run (about 0.7 s of CPU, more than the smoothing of a 60k-step session); this module
- * imports in about a millisecond.  Same equations, same operation order as the numba kernel (which
- * stays the fallback when this extension is not built, and which the tests compare it with); see
- * smoother_fast.py's module text for the arithmetic (scalar updates in the expanded Joseph form,
- * packed covariances, the parameter rows of the RTS gain known).
+ * imports in about a millisecond.  Same equations as the numba kernel (which stays the fallback when
+ * this extension is not built); both are tested against the numpy reference.  See smoother_fast.py's
+ * module text for the arithmetic (scalar updates in the expanded Joseph form, packed covariances, the
+ * parameter rows of the RTS gain known).  Beyond it, the loops skip the known zeros of A and Phi
+ * (position and magnetometer columns), the backward pass reuses the prediction's Phi P for the gain, and
+ * the loops are arranged for vectors and registers; every element still sums the same nonzero terms in
+ * the same order, so the baseline build (-DSKI_NO_CLONES) gives the results of the plain loops to the
+ * last bit, and the AVX2/FMA clone differs from them by FMA's single rounding (~1e-11 on 60k steps).
  *
  * Arrays travel through the buffer protocol (no numpy headers needed to build); the Python side
  * (sportfusion.skijump._ski_native) passes C-contiguous float64 arrays and preallocated outputs.
@@ -18,8 +22,36 @@
 #define N 22
 #define NP 253
 #define NSTD 28
-#define NPAR 21
+#define NPAR 22
 #define NRES 16
+
+#if defined(__GNUC__)
+#define PREFETCH(p) __builtin_prefetch(p)
+#else
+#define PREFETCH(p) ((void)0)
+#endif
+
+/* Runtime dispatch: with GCC 11 or later on x86-64 Linux (glibc's ifunc), the hot functions are compiled twice,
+   for x86-64-v3 (AVX2 and FMA: about 20 % less time here) and for the baseline x86-64, and the loader picks one by
+   the CPU.  Other compilers and platforms (or -DSKI_NO_CLONES) build the baseline alone.  FMA rounds a * b + c once:
+   results differ from the baseline build's in the last bits (numba, built for the host CPU, contracts too). */
+#if defined(__x86_64__) && defined(__linux__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) && \
+    __GNUC__ >= 11 && !defined(SKI_NO_CLONES)
+#define HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define HOT
+#endif
+
+/* the columns of A (and of Phi - I) that can be nonzero */
+#define A_LO 3
+#define A_HI 16
+/* a row of the Cholesky factor with the gain's right-hand side beside it (chol_solve) */
+#define NW (N + 10)
+
+/* vectors of N are cleared by copying zeros: GCC clears them with rep stos otherwise, whose start-up costs more
+   than the clearing */
+static const double ZEROS[N];
+#define ZERO(a) memcpy(a, ZEROS, sizeof(a))
 
 typedef struct {
     Py_buffer view;
@@ -89,7 +121,7 @@ static void f_kin(const double *x, const double *u, double g0, const double *mno
     out[9] = 0.5 * (-q2 * wx + q1 * wy + q0 * wz);
 }
 
-static void rk4(const double *x, const double *u0, const double *u1, double dt, double g0, const double *mno,
+HOT static void rk4(const double *x, const double *u0, const double *u1, double dt, double g0, const double *mno,
                 double *out) {
     double k1[N], k2[N], k3[N], k4[N], xt[N], um[6];
     for (int i = 0; i < 6; i++) um[i] = 0.5 * (u0[i] + u1[i]);
@@ -104,10 +136,11 @@ static void rk4(const double *x, const double *u0, const double *u1, double dt, 
 }
 
 /* top rows of Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T (eqs 7, 9, 13) */
-static void phi_qd(const double *x, const double *u, double dt, double g0, const double *mno, const double *qd,
+HOT static void phi_qd(const double *x, const double *u, double dt, double g0, const double *mno, const double *qd,
                    double Phi[10][N], double Qd[10][10]) {
-    double A[10][N], F[10][6], G[10][6], M[3][3], D[4][3][3];
-    memset(A, 0, sizeof(A));
+    double A[10][A_HI], F[10][6], G[10][6], M[3][3], D[4][3][3];
+    for (int i = 0; i < 10; i++) /* columns 0-2 are never read */
+        for (int j = A_LO; j < A_HI; j++) A[i][j] = 0.0;
     mbo(x + 6, M);
     dmdq(x + 6, D);
     const double *v = x + 3;
@@ -141,49 +174,84 @@ static void phi_qd(const double *x, const double *u, double dt, double g0, const
         A[8][10 + j] = -0.5 * xi2[j];
         A[9][10 + j] = -0.5 * xi3[j];
     }
-    memset(F, 0, sizeof(F));
+    for (int i = 0; i < 10; i++)
+        for (int j = 0; j < 6; j++) F[i][j] = 0.0;
     for (int i = 3; i < 10; i++)
         for (int j = 0; j < 3; j++) F[i][j] = A[i][10 + j];
     for (int i = 0; i < 3; i++) F[3 + i][3 + i] = -1.0;
+    /* A's columns 0-2 (position) and 16-21 (magnetometer states) are zero, and so are F's rows 0-2: the
+       sums run over m = 3..9 only and Phi is the identity outside columns 3-15.  Skipping exact zeros
+       leaves every sum as the dense one (same order, the same additions of nonzero terms). */
+    double h2 = 0.5 * dt * dt;
     for (int i = 0; i < 10; i++) {
-        for (int j = 0; j < N; j++) {
+        double a[10]; /* row i of A^2: the sums over m (constant length, unrolled) side by side across j */
+        for (int m = A_LO; m < 10; m++) a[m] = A[i][m];
+        for (int j = 0; j < A_LO; j++) Phi[i][j] = 0.0;
+        for (int j = A_LO; j < A_HI; j++) {
             double a2 = 0.0;
-            for (int m = 0; m < 10; m++) a2 += A[i][m] * A[m][j];
-            Phi[i][j] = A[i][j] * dt + 0.5 * dt * dt * a2;
+            for (int m = A_LO; m < 10; m++) a2 += a[m] * A[m][j];
+            Phi[i][j] = A[i][j] * dt + h2 * a2;
         }
+        for (int j = A_HI; j < N; j++) Phi[i][j] = 0.0;
         Phi[i][i] += 1.0;
     }
     for (int i = 0; i < 10; i++)
         for (int j = 0; j < 6; j++) {
             double af = 0.0;
-            for (int m = 0; m < 10; m++) af += A[i][m] * F[m][j];
-            G[i][j] = dt * F[i][j] + 0.5 * dt * dt * af;
+            for (int m = A_LO; m < 10; m++) af += A[i][m] * F[m][j];
+            G[i][j] = dt * F[i][j] + h2 * af;
         }
+    /* Qd = G diag(qd) G^T: each element sums over m in order; computed row by row across j (independent sums,
+       not one chain of dependent additions after another), the upper triangle kept */
+    double Gq[10][6], GT[6][10];
     for (int i = 0; i < 10; i++)
-        for (int j = i; j < 10; j++) {
-            double s = 0.0;
-            for (int m = 0; m < 6; m++) s += G[i][m] * qd[m] * G[j][m];
-            Qd[i][j] = s;
-            Qd[j][i] = s;
-        }
-}
-
-/* out = Phi P Phi^T + Qd with Phi = [[Phi_top], [0 I]] */
-static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], double out[N][N]) {
-    double T[10][N];
-    memset(T, 0, sizeof(T));
-    for (int i = 0; i < 10; i++)
-        for (int m = 0; m < N; m++) {
-            double a = Phi[i][m];
-            if (a != 0.0)
-                for (int j = 0; j < N; j++) T[i][j] += a * P[m][j];
+        for (int m = 0; m < 6; m++) {
+            Gq[i][m] = G[i][m] * qd[m];
+            GT[m][i] = G[i][m];
         }
     for (int i = 0; i < 10; i++) {
+        double s[10];
+        for (int j = 0; j < 10; j++) {
+            double v = 0.0;
+            for (int m = 0; m < 6; m++) v += Gq[i][m] * GT[m][j];
+            s[j] = v;
+        }
         for (int j = i; j < 10; j++) {
-            double s = Qd[i][j];
-            for (int m = 0; m < N; m++) s += T[i][m] * Phi[j][m];
-            out[i][j] = s;
-            out[j][i] = s;
+            Qd[i][j] = s[j];
+            Qd[j][i] = s[j];
+        }
+    }
+}
+
+/* out = Phi P Phi^T + Qd with Phi = [[Phi_top], [0 I]]; T = Phi_top P (10 x 22) is returned for the
+   backward pass.  Phi_top is the identity in columns 0-2 and zero in columns 16-21 (phi_qd), so the products
+   run over columns 3-15 and the identity; every element sums its nonzero terms in the order of the dense
+   product, row by row as vector updates (j innermost) */
+HOT static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], double out[N][N], double T[10][N]) {
+    double PhiT[A_HI][10];
+    for (int i = 0; i < 10; i++) {
+        double f[A_HI];
+        for (int m = A_LO; m < A_HI; m++) f[m] = Phi[i][m];
+        for (int j = 0; j < N; j++) {
+            double s = i < 3 ? P[i][j] : 0.0;
+            for (int m = A_LO; m < A_HI; m++) s += f[m] * P[m][j];
+            T[i][j] = s;
+        }
+    }
+    for (int m = A_LO; m < A_HI; m++)
+        for (int j = 0; j < 10; j++) PhiT[m][j] = Phi[j][m];
+    for (int i = 0; i < 10; i++) {
+        double s[10], f[A_HI];
+        for (int m = A_LO; m < A_HI; m++) f[m] = T[i][m];
+        for (int j = 0; j < 10; j++) {
+            double v = Qd[i][j];
+            if (j < 3) v += T[i][j];
+            for (int m = A_LO; m < A_HI; m++) v += f[m] * PhiT[m][j];
+            s[j] = v;
+        }
+        for (int j = i; j < 10; j++) {
+            out[i][j] = s[j];
+            out[j][i] = s[j];
         }
         for (int j = 10; j < N; j++) {
             out[i][j] = T[i][j];
@@ -197,24 +265,28 @@ static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], do
         }
 }
 
-/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite */
-static int scalar(double *x, double P[N][N], const double *xp, const double *h, double r0, double var) {
+/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite.  Reads and
+   updates P's upper triangle only (P is symmetric: mirror() restores the lower one before it is read) */
+HOT static int scalar(double *x, double P[N][N], const double *xp, const double *h, double r0, double var) {
     double Ph[N];
-    double r = r0;
+    int nz[N], cnt = 0;
     for (int i = 0; i < N; i++)
-        if (h[i] != 0.0) r -= h[i] * (x[i] - xp[i]);
-    for (int i = 0; i < N; i++) Ph[i] = 0.0;
-    for (int m = 0; m < N; m++) {
+        if (h[i] != 0.0) nz[cnt++] = i;
+    double r = r0;
+    for (int c = 0; c < cnt; c++) r -= h[nz[c]] * (x[nz[c]] - xp[nz[c]]);
+    ZERO(Ph);
+    for (int c = 0; c < cnt; c++) { /* P h, over h's nonzero entries in order: column m above the diagonal, row m from it */
+        int m = nz[c];
         double a = h[m];
-        if (a != 0.0)
-            for (int i = 0; i < N; i++) Ph[i] += P[m][i] * a;
+        for (int i = 0; i < m; i++) Ph[i] += P[i][m] * a;
+        for (int i = m; i < N; i++) Ph[i] += P[m][i] * a;
     }
     double s0 = 0.0;
-    for (int i = 0; i < N; i++) s0 += h[i] * Ph[i];
+    for (int c = 0; c < cnt; c++) s0 += h[nz[c]] * Ph[nz[c]];
     double s = s0 + var;
     if (!(s > 0.0)) return 0;
     /* the expanded Joseph form with the optimal gain k = Ph / s is P - Ph Ph^T / s: one symmetric rank-1
-       update by g = Ph / sqrt(s), row by row (contiguous, and g_i g_j = g_j g_i keeps P exactly symmetric) */
+       update by g = Ph / sqrt(s) (g_i g_j = g_j g_i: the upper triangle is the whole update) */
     double rs = r / s, g[N], sq = 1.0 / sqrt(s);
     for (int i = 0; i < N; i++) {
         x[i] += Ph[i] * rs;
@@ -222,9 +294,15 @@ static int scalar(double *x, double P[N][N], const double *xp, const double *h, 
     }
     for (int i = 0; i < N; i++) {
         double gi = g[i];
-        for (int j = 0; j < N; j++) P[i][j] -= gi * g[j];
+        for (int j = i; j < N; j++) P[i][j] -= gi * g[j];
     }
     return 1;
+}
+
+/* the lower triangle from the upper one */
+static void mirror(double P[N][N]) {
+    for (int i = 0; i < N; i++)
+        for (int j = i + 1; j < N; j++) P[j][i] = P[i][j];
 }
 
 static void profile(double x, double x0, double step, const double *z, const double *dz, Py_ssize_t nz, double *zo,
@@ -242,17 +320,35 @@ static void profile(double x, double x0, double step, const double *z, const dou
     *dzo = (1 - a) * dz[i] + a * dz[i + 1];
 }
 
-static int chol(double A[N][N], double L[N][N]) {
+/* Cholesky factor A = U^T U (U upper triangular, U[j][i] the lower factor's L[i][j]) with the forward
+   substitution U^T Y = R of a right-hand side R (N x 10) folded in: row j of U carries Y's row j in its columns
+   N .. N + 9.  0 when A is not positive definite.  Right-looking: once row j is known it is taken off the
+   trailing rows (vector updates along each row).  Every element subtracts the same products in the same order as
+   the left-looking dot products L[i][j] = (A[i][j] - sum_m L[i][m] L[j][m]) / L[j][j] and
+   Y[i] = (R[i] - sum_m L[i][m] Y[m]) / L[i][i] (Y by the reciprocal), so U and Y are the same. */
+HOT static int chol_solve(double A[N][N], double R[N][10], double U[N][NW]) {
+    double W[N][NW];
+    for (int i = 0; i < N; i++) {
+        memcpy(W[i], A[i], sizeof(A[i]));
+        memcpy(W[i] + N, R[i], sizeof(R[i]));
+    }
     for (int j = 0; j < N; j++) {
-        double s = A[j][j];
-        for (int m = 0; m < j; m++) s -= L[j][m] * L[j][m];
+        double s = W[j][j];
         if (!(s > 0.0) || !isfinite(s)) return 0;
-        double d = sqrt(s);
-        L[j][j] = d;
-        for (int i = j + 1; i < N; i++) {
-            double v = A[i][j];
-            for (int m = 0; m < j; m++) v -= L[i][m] * L[j][m];
-            L[i][j] = v / d;
+        double d = sqrt(s), rd = 1.0 / d;
+        U[j][j] = d;
+        for (int i = j + 1; i < N; i++) U[j][i] = W[j][i] / d;
+        for (int i = N; i < NW; i++) U[j][i] = W[j][i] * rd;
+        for (int k = j + 1; k < N; k++) {
+            /* from the multiple of 4 at or below k: whole vectors of 4 (the extra entries below the diagonal
+               are never read; U's are zeros) */
+            double f = U[j][k];
+            for (int i = k & ~3; i < NW; i += 4) {
+                W[k][i] -= f * U[j][i];
+                W[k][i + 1] -= f * U[j][i + 1];
+                W[k][i + 2] -= f * U[j][i + 2];
+                W[k][i + 3] -= f * U[j][i + 3];
+            }
         }
     }
     return 1;
@@ -283,7 +379,7 @@ static void unpack(const double *p, double P[N][N]) {
 static double sqrt0(double v) { return v >= 0.0 ? sqrt(v) : (v < 0.0 ? 0.0 : v); }
 
 /* standard deviations at one step: the states' (22), the hill-frame velocity's (3), roll/pitch/yaw's (3) */
-static void std_row(const double *x, double P[N][N], const double *mno, double *out) {
+HOT static void std_row(const double *x, double P[N][N], const double *mno, double *out) {
     double M[3][3], D[4][3][3], J[3][7];
     for (int i = 0; i < N; i++) out[i] = sqrt0(P[i][i]);
     mbo(x + 6, M);
@@ -328,7 +424,7 @@ static void std_row(const double *x, double P[N][N], const double *mno, double *
 }
 
 /* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
-static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
+HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
                       const double *mag, const double *inrun, const double *landing, const double *still,
                       const double *x0, const double *P0,
                       const double *mno, const double *m_o, const double *qd, const double *irz, const double *irdz,
@@ -339,23 +435,26 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
     double ir_x0 = par[12], ir_step = par[13], la_x0 = par[14], la_step = par[15];
     int use_hill = par[16] != 0.0, use_vel = par[17] != 0.0, use_mag = par[18] != 0.0, smooth = par[19] != 0.0;
     double rzu = par[20];
-    double P[N][N], Pn[N][N], Phi[10][N], Qd[10][10], M[3][3], D[4][3][3];
+    /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
+    int keep = smooth || par[21] != 0.0;
+    double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
+    double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
     double x[N], xn[N], xp[N], h[N];
     memcpy(x, x0, sizeof(x));
-    memcpy(P, P0, sizeof(P));
+    memcpy(Pa, P0, sizeof(Pa));
     *phase = 0;
     for (Py_ssize_t k = 0; k < n; k++) {
         double *rk = resid + NRES * k;
         memcpy(xp, x, sizeof(xp));
-        memcpy(x_pred + N * k, xp, sizeof(xp));
+        if (keep) memcpy(x_pred + N * k, xp, sizeof(xp));
         double nq = sqrt(xp[6] * xp[6] + xp[7] * xp[7] + xp[8] * xp[8] + xp[9] * xp[9]);
-        memset(h, 0, sizeof(h));
+        ZERO(h);
         for (int i = 0; i < 4; i++) h[6 + i] = xp[6 + i] / nq;
         rk[0] = -(nq - 1.0);
         if (!scalar(x, P, xp, h, -(nq - 1.0), rcq)) return k;
         if (isfinite(pos[3 * k])) {
             for (int i = 0; i < 3; i++) {
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 h[i] = 1.0;
                 double r0 = pos[3 * k + i] - xp[i];
                 rk[1 + i] = r0;
@@ -366,7 +465,7 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
             mbo(xp + 6, M);
             dmdq(xp + 6, D);
             for (int i = 0; i < 3; i++) {
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 double hv = 0.0;
                 for (int j = 0; j < 3; j++) {
                     h[3 + j] = M[j][i];
@@ -382,7 +481,7 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
             mbo(xp + 6, M);
             dmdq(xp + 6, D);
             for (int i = 0; i < 3; i++) {
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 double mb = M[i][0] * m_o[0] + M[i][1] * m_o[1] + M[i][2] * m_o[2];
                 double s = 1.0 + xp[19 + i];
                 for (int kk = 0; kk < 4; kk++)
@@ -398,19 +497,19 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
             double z, dz;
             if (inrun[k] != 0.0) {
                 profile(xp[0], ir_x0, ir_step, irz, irdz, nir, &z, &dz);
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[10] = z - xp[2];
                 if (!scalar(x, P, xp, h, z - xp[2], rir)) return k;
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 h[1] = 1.0;
                 rk[11] = -xp[1];
                 if (!scalar(x, P, xp, h, -xp[1], rhir)) return k;
             }
             if (landing[k] > 0.0) {
                 profile(xp[0], la_x0, la_step, laz, ladz, nla, &z, &dz);
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[12] = z - xp[2];
@@ -419,7 +518,7 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
         }
         if (still[k] > 0.0) { /* zero velocity: v_B = 0 */
             for (int i = 0; i < 3; i++) {
-                memset(h, 0, sizeof(h));
+                ZERO(h);
                 h[3 + i] = 1.0;
                 rk[13 + i] = -xp[3 + i];
                 if (!scalar(x, P, xp, h, -xp[3 + i], rzu / still[k])) return k;
@@ -427,13 +526,16 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
         }
         if (!pd_diag(P)) return k;
         memcpy(x_filt + N * k, x, sizeof(x));
-        pack(P, Pbuf + NP * k);
+        if (keep) pack(P, Pbuf + NP * k);
         if (k < n - 1) {
             double dt = t[k + 1] - t[k];
             rk4(x, u + 6 * k, u + 6 * (k + 1), dt, g0, mno, xn);
             phi_qd(x, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
-            predict_cov(P, Phi, Qd, Pn);
-            memcpy(P, Pn, sizeof(P));
+            mirror(P);
+            predict_cov(P, Phi, Qd, Pn, Tf);
+            double(*Pt)[N] = P;
+            P = Pn;
+            Pn = Pt;
             if (!pd_diag(P)) {
                 *phase = 1;
                 return k + 1;
@@ -443,90 +545,92 @@ static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const doub
     }
     if (!smooth) return -1;
     /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one */
-    double Ps[N][N], Pf[N][N], Pp[N][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], L[N][N];
+    double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], U[N][NW];
     double dx[N];
     memcpy(x_s + N * (n - 1), x_filt + N * (n - 1), sizeof(double) * N);
     unpack(Pbuf + NP * (n - 1), Ps);
     std_row(x_s + N * (n - 1), Ps, mno, std + NSTD * (n - 1));
-    memset(L, 0, sizeof(L));
+    memset(U, 0, sizeof(U));
     for (Py_ssize_t k = n - 2; k >= 0; k--) {
         const double *xf = x_filt + N * k;
+        if (k >= 2) /* the step after next's filtered covariance (2 KB): read from memory while this step computes */
+            for (int i = 0; i < NP; i += 8) PREFETCH(Pbuf + NP * (k - 2) + i);
         unpack(Pbuf + NP * k, Pf);
         double dt = t[k + 1] - t[k];
         phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
-        predict_cov(Pf, Phi, Qd, Pp);
+        predict_cov(Pf, Phi, Qd, Pp, T);
         for (int i = 0; i < N; i++)
             if (!(Pp[i][i] > 0.0)) {
                 *phase = 2;
                 return k + 1;
             }
-        if (!chol(Pp, L)) {
+        /* the gain's kinematic rows: Ct = C[:10]^T = Pp^-1 (Phi P)[:, :10] by the two triangular solves;
+           (Phi P)[:10] is predict_cov's T, its other rows are P's */
+        for (int i = 0; i < N; i++)
+            for (int j = 0; j < 10; j++) Y[i][j] = i < 10 ? T[i][j] : Pf[i][j];
+        if (!chol_solve(Pp, Y, U)) {
             *phase = 2;
             return k + 1;
         }
-        for (int i = 0; i < N; i++) {
-            if (i < 10) {
-                for (int j = 0; j < 10; j++) Y[i][j] = 0.0;
-                for (int m = 0; m < N; m++) {
-                    double a = Phi[i][m];
-                    if (a != 0.0)
-                        for (int j = 0; j < 10; j++) Y[i][j] += a * Pf[m][j];
-                }
-            } else {
-                for (int j = 0; j < 10; j++) Y[i][j] = Pf[i][j];
-            }
-            for (int m = 0; m < i; m++) {
-                double a = L[i][m];
-                for (int j = 0; j < 10; j++) Y[i][j] -= a * Y[m][j];
-            }
-            double d = 1.0 / L[i][i];
-            for (int j = 0; j < 10; j++) Y[i][j] *= d;
-        }
         for (int i = N - 1; i >= 0; i--) {
-            for (int j = 0; j < 10; j++) Ct[i][j] = Y[i][j];
+            double v[10];
+            for (int j = 0; j < 10; j++) v[j] = U[i][N + j];
             for (int m = i + 1; m < N; m++) {
-                double a = L[m][i];
-                for (int j = 0; j < 10; j++) Ct[i][j] -= a * Ct[m][j];
+                double a = U[i][m];
+                for (int j = 0; j < 10; j++) v[j] -= a * Ct[m][j];
             }
-            double d = 1.0 / L[i][i];
-            for (int j = 0; j < 10; j++) Ct[i][j] *= d;
+            double d = 1.0 / U[i][i];
+            for (int j = 0; j < 10; j++) Ct[i][j] = v[j] * d;
         }
         double *xs = x_s + N * k;
         const double *xs1 = x_s + N * (k + 1), *xp1 = x_pred + N * (k + 1);
         for (int m = 0; m < N; m++) dx[m] = xs1[m] - xp1[m];
-        for (int i = 0; i < 10; i++) {
-            double s = xf[i];
-            for (int m = 0; m < N; m++) s += Ct[m][i] * dx[m];
-            xs[i] = s;
+        {
+            double s[10]; /* xs = xf + C dx over the kinematic rows, summed over m in order as vector updates */
+            for (int i = 0; i < 10; i++) s[i] = xf[i];
+            for (int m = 0; m < N; m++) {
+                double a = dx[m];
+                for (int i = 0; i < 10; i++) s[i] += Ct[m][i] * a;
+            }
+            for (int i = 0; i < 10; i++) xs[i] = s[i];
         }
         for (int i = 10; i < N; i++) xs[i] = xf[i] + dx[i];
         for (int i = 0; i < N; i++)
             for (int j = 0; j < N; j++) Dm[i][j] = Ps[i][j] - Pp[i][j];
         for (int i = 0; i < 10; i++) {
-            for (int j = 0; j < N; j++) E[i][j] = 0.0;
-            for (int m = 0; m < N; m++) {
-                double a = Ct[m][i];
-                for (int j = 0; j < N; j++) E[i][j] += a * Dm[m][j];
+            double c[N]; /* E = C Dm, row i; the sums over m in two halves of constant length (unrolled) */
+            for (int m = 0; m < N; m++) c[m] = Ct[m][i];
+            for (int j = 0; j < N; j++) {
+                double v = 0.0;
+                for (int m = 0; m < N / 2; m++) v += c[m] * Dm[m][j];
+                for (int m = N / 2; m < N; m++) v += c[m] * Dm[m][j];
+                E[i][j] = v;
             }
         }
         for (int i = 0; i < 10; i++) {
+            double s[10], e[N]; /* Pf + E C^T, row i */
+            for (int m = 0; m < N; m++) e[m] = E[i][m];
+            for (int j = 0; j < 10; j++) {
+                double v = Pf[i][j];
+                for (int m = 0; m < N / 2; m++) v += e[m] * Ct[m][j];
+                for (int m = N / 2; m < N; m++) v += e[m] * Ct[m][j];
+                s[j] = v;
+            }
             for (int j = i; j < 10; j++) {
-                double s = Pf[i][j];
-                for (int m = 0; m < N; m++) s += E[i][m] * Ct[m][j];
-                Ps[i][j] = s;
-                Ps[j][i] = s;
+                Ps[i][j] = s[j];
+                Ps[j][i] = s[j];
             }
             for (int j = 10; j < N; j++) {
-                double s = Pf[i][j] + E[i][j];
-                Ps[i][j] = s;
-                Ps[j][i] = s;
+                double v = Pf[i][j] + E[i][j];
+                Ps[i][j] = v;
+                Ps[j][i] = v;
             }
         }
         for (int i = 10; i < N; i++)
             for (int j = i; j < N; j++) {
-                double s = Pf[i][j] + Dm[i][j];
-                Ps[i][j] = s;
-                Ps[j][i] = s;
+                double v = Pf[i][j] + Dm[i][j];
+                Ps[i][j] = v;
+                Ps[j][i] = v;
             }
         pack(Ps, Pbuf + NP * k);
         std_row(xs, Ps, mno, std + NSTD * k);
@@ -539,7 +643,8 @@ static const char doc_ekf_rts[] =
     "        x_filt, x_pred, x_smooth, P_packed, resid, std) -> (fail, phase)\n\n"
     "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
-    "use_mag, smooth, r_zupt (variances, not sigmas).  Outputs are written in place; fail is -1 or the step at which a\n"
+    "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
+    "written).  Outputs are written in place; fail is -1 or the step at which a\n"
     "covariance stopped being positive definite, phase 0 update, 1 prediction, 2 backward pass.";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
@@ -559,7 +664,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                                     "la_dz", "par",  "x_filt", "x_pred",   "x_smooth", "P_packed", "resid", "std"};
     Py_ssize_t counts[24] = {n,     6 * n, 3 * n, 3 * n, 3 * n, n,     n,      n,
                              N,     N * N, 9,     3,     6 * n, -2,    -2,     -2,
-                             -2,    NPAR,  N * n, N * n, N * n, NP * n, NRES * n, NSTD * n};
+                             -2,    NPAR,  N * n, -N,    N * n, -NP,    NRES * n, NSTD * n};
     Buf b[24];
     int k;
     for (k = 0; k < 24; k++) {
@@ -568,8 +673,13 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     PyObject *res = NULL;
     if (k == 24) {
         Py_ssize_t nir = b[13].view.len / 8, nla = b[15].view.len / 8;
+        const double *par = (const double *)b[17].view.buf;
+        int keep = par[19] != 0.0 || par[21] != 0.0; /* smooth or keep_cov: x_pred and P_packed are written */
         if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
             PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
+        } else if (keep && (b[19].view.len != 8 * N * n || b[21].view.len != 8 * NP * n)) {
+            PyErr_Format(PyExc_ValueError, "ekf_rts: x_pred and P_packed: expected %zd and %zd float64 items", N * n,
+                         NP * n);
         } else {
             const double *p[18];
             for (int i = 0; i < 18; i++) p[i] = (const double *)b[i].view.buf;

@@ -3,7 +3,8 @@
 :mod:`sportfusion.skijump._ski_c` (C, built by ``setup.py`` as an optional extension) imports in about
 a millisecond; numba's import and the building of its target context when the first cached kernel is
 loaded cost about 0.7 s of CPU per ``rts-smooth`` run -- more than smoothing a 60k-step session.
-Both run the same equations in the same order (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`);
+Both run the same equations (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`; they differ in the last
+bits: numba re-associates sums, the C kernel's x86-64-v3 clone fuses multiply-adds);
 without the extension (no C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the environment)
 the numba kernel does the work.  This module also holds the layout both share (no numba import here).
 """
@@ -64,26 +65,30 @@ def _f64(a: object) -> np.ndarray:
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
+    filtered_cov=True,
 ):  # fmt: skip  # noqa: ANN001, ANN201
     """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
 
-    Raises RuntimeError when the extension is not built (call :func:`native` first).
+    ``filtered_cov=False`` with ``smooth=False``: the filtered covariances are not kept (the returned
+    packed covariances are an empty (0, 253) array): a forward run for its states alone then writes
+    2 KB less per step.  Raises RuntimeError when the extension is not built (call :func:`native` first).
     """
     mod = native()
     if mod is None:
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
+    keep = bool(smooth) or bool(filtered_cov)
     x_filt = np.empty((n, N))
-    x_pred = np.empty((n, N))
+    x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
     x_s = np.empty((n, N)) if smooth else x_filt
-    pbuf = np.empty((n, NP))
+    pbuf = np.empty((n, NP) if keep else (1, NP))
     resid = np.full((n, NRES), np.nan)
     std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
     rpos, rvel = _f64(rpos), _f64(rvel)
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
         + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
-        + [rzu],
+        + [rzu, float(keep)],
         dtype=np.float64,
     )
     fail, phase = mod.ekf_rts(
@@ -100,6 +105,8 @@ def ski_ekf_rts(
         resid,
         std if smooth else np.empty((n, NSTD)),
     )
+    if not keep:
+        pbuf = np.empty((0, NP))
     if fail >= 0:
         return x_filt, x_filt, pbuf, resid, fail, phase, np.empty((0, NSTD))
     return x_filt, x_s, pbuf, resid, -1, 0, std

@@ -270,6 +270,11 @@ def _run_fast(  # noqa: ANN202
     P0: np.ndarray,
     smooth: bool = True,
 ):
+    """One run of the compiled loop over ``seg``: ``(x_filt, x_smooth, P_packed, residuals, std)``.
+
+    Without ``smooth`` (a forward run for its states), the C engine keeps no filtered covariances: its
+    ``P_packed`` is then empty (numba's holds them).
+    """
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
     empty = np.zeros(2)
@@ -309,6 +314,7 @@ def _run_fast(  # noqa: ANN202
             bool(cfg.use_gnss_vel),
             bool(cfg.use_mag),
             bool(smooth),
+            **({} if smooth or fast.__name__.endswith("smoother_fast") else {"filtered_cov": False}),
         )
     except np.linalg.LinAlgError:
         raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
@@ -511,6 +517,9 @@ def smooth_inputs(
             i += P.shape[0]
         return out
 
+    if len(xfs) == 1:  # one segment: its arrays as they are (a copy of 60k steps costs ~10 ms per 10 MB)
+        std = stds[0]
+        return Smoothed(xfs[0], xss[0], cov, var, resids[0], npass, lat, std)
     names = {k: v.shape[1] for r in resids for k, v in r.items()}
     out = {k: np.full((inp.t.size, m), np.nan) for k, m in names.items()}
     i = 0
