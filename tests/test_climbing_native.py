@@ -150,3 +150,29 @@ def test_bad_dimensions_are_refused() -> None:
         C.backward_paths(3, 2, 0, 1, *([z] * 12))
     with pytest.raises(ValueError, match="expected"):
         C.complementary(5, *([z] * 10))
+    # a hold code beyond the cluster table is refused, not read out of bounds
+    t, v, cov, grip, route, start = _ladder()
+    ids, centres = route
+    orig = C.forward
+    args = {}
+
+    def capture(*a):  # noqa: ANN002, ANN202
+        args["a"] = list(a)
+        return orig(*a)
+
+    class Spy:
+        forward = staticmethod(capture)
+
+        def __getattr__(self, name: str):  # noqa: ANN204
+            return getattr(C, name)
+
+    saved = _native._NATIVE
+    _native._NATIVE = Spy()
+    try:
+        pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=20), seed=1, smooth=False)
+    finally:
+        _native._NATIVE = saved
+    a = args["a"]
+    a[13 + 12] = np.full_like(a[13 + 12], a[3])  # r_code = ncodes
+    with pytest.raises(ValueError, match="out of range"):
+        C.forward(*a)

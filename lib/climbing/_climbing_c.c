@@ -318,6 +318,21 @@ static PyObject *py_forward(PyObject *self, PyObject *args) {
         if (get_buf(o[k], &b[k], cnt[k], k >= 19, names[k]) < 0) break;
     }
     PyObject *res = NULL;
+    if (k == 31) { /* the codes index the cluster sums and the strata: checked here, the loop trusts them */
+        const int64_t *rc = b[12].view.buf, *wc = b[14].view.buf, *l0 = b[17].view.buf, *wh = b[18].view.buf;
+        int ok = d.nowhere >= 0 && d.nowhere < d.ncodes;
+        for (int64_t i = 0; i < d.nr && ok; i++) ok = rc[i] >= 0 && rc[i] < d.ncodes;
+        for (int64_t i = 0; i < d.nw && ok; i++) ok = wc[i] >= 0 && wc[i] < d.ncodes;
+        for (int64_t i = 0; i < m && ok; i++)
+            ok = l0[i] >= 0 && l0[i] < d.ncodes && (d.nstrata == 1 || (wh[i] >= 0 && wh[i] < d.nstrata));
+        int64_t filled[64] = {0};
+        for (int64_t i = 0; i < m && ok && d.nstrata > 1 && d.nstrata <= 64; i++) filled[wh[i]]++;
+        for (int64_t h = 0; h < d.nstrata && ok && d.nstrata > 1; h++) ok = d.nstrata <= 64 && filled[h] > 0;
+        if (!ok) {
+            PyErr_SetString(PyExc_ValueError, "pf_forward: a hold code or stratum out of range (or an empty stratum)");
+            k = 0;
+        }
+    }
     if (k == 31) {
         void *p[31];
         for (int i = 0; i < 31; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
