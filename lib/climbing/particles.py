@@ -442,17 +442,19 @@ def run_particle_filter(
     pf_c = native()
     if pf_c is not None:  # the same loop, step by step in C (the numpy blocks below are its reference)
         out_code = np.empty(n, dtype=np.int64)
+        c64 = np.ascontiguousarray
         lab0 = np.searchsorted(table, s_ids[which]).astype(np.int64)
         merged_at, resamples = pf_c.forward(
             n, m, k0, table.size, nowhere, len(strata), r_ids.size, w_ids.size,
             p.hold.radius, p.hold.sigma, p.hold.log_peak, p.hold.log_elsewhere, p.ess_fraction,
-            np.ascontiguousarray(horiz) if n > 1 else np.zeros(3), np.ascontiguousarray(model.kstep) if n > 1 else np.zeros(3),
-            normal_pos, np.ascontiguousarray(model.chol[k0 : n - 1]) if nk else np.zeros(9),
-            np.ascontiguousarray(model.ustep) if n > 1 else np.zeros(3), np.ascontiguousarray(add_psi), u_res, grip.astype(np.int64), grip_end.astype(np.int64),
-            late.astype(np.int64), None if temper is None else np.ascontiguousarray(temper, dtype=np.float64),
-            np.ascontiguousarray(r_pos, dtype=np.float64), r_code.astype(np.int64),
-            np.ascontiguousarray(w_pos, dtype=np.float64), w_code.astype(np.int64),
-            np.ascontiguousarray(pos.T), np.ascontiguousarray(psi), lab0, which.astype(np.int64),
+            c64(horiz) if n > 1 else np.zeros(3), c64(model.kstep) if n > 1 else np.zeros(3),
+            normal_pos, c64(model.chol[k0 : n - 1]) if nk else np.zeros(9),
+            c64(model.ustep) if n > 1 else np.zeros(3), c64(add_psi), u_res,
+            grip.astype(np.int64), grip_end.astype(np.int64), late.astype(np.int64),
+            None if temper is None else c64(temper, dtype=np.float64),
+            c64(r_pos, dtype=np.float64), r_code.astype(np.int64),
+            c64(w_pos, dtype=np.float64), w_code.astype(np.int64),
+            c64(pos.T), c64(psi), lab0, which.astype(np.int64),
             hist, hist_w, hist_lab, anc if n > 1 else np.zeros(m, dtype=np.int64),
             out_pos, out_code, out_prob, out_yaw, out_ev, start_ev if len(strata) > 1 else np.zeros(1),
             np.empty(11 * m + table.size * (len(strata) + 1) + 5 * len(strata)),
