@@ -176,3 +176,16 @@ def test_bad_dimensions_are_refused() -> None:
     a[13 + 12] = np.full_like(a[13 + 12], a[3])  # r_code = ncodes
     with pytest.raises(ValueError, match="out of range"):
         C.forward(*a)
+
+
+@needs_c
+@pytest.mark.parametrize("first_grip", ["last", "second_last"])
+def test_c_path_with_the_first_grip_at_the_end(engines, first_grip: str) -> None:
+    """The filter starts at the last or second-to-last sample: no step to predict, or one."""
+    t, v, cov, grip, route, start = _ladder()
+    grip = np.zeros_like(grip)
+    grip[-1 if first_grip == "last" else -2] = True
+    params = PFParams(particles=20)
+    out = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=1))
+    _same(out["numpy"], out["c"])
+    assert np.isfinite(out["c"].smooth_pos[-1]).all()
