@@ -19,27 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct {
-    Py_buffer view;
-    int held;
-} Buf;
-
-static int get_buf(PyObject *obj, Buf *b, Py_ssize_t count, int writable, const char *name) {
-    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
-    b->held = 0;
-    if (PyObject_GetBuffer(obj, &b->view, flags) < 0) return -1;
-    b->held = 1;
-    if (b->view.itemsize != 8 || (count >= 0 && b->view.len != 8 * count) || (count < 0 && b->view.len < 8 * -count)) {
-        PyErr_Format(PyExc_ValueError, "%s: expected %zd 8-byte items, got %zd bytes", name, count, b->view.len);
-        return -1;
-    }
-    return 0;
-}
-
-static void release(Buf *b, int count) {
-    for (int i = 0; i < count; i++)
-        if (b[i].held) PyBuffer_Release(&b[i].view);
-}
+#include "../core/_buffers.h"
 
 /* indices of systematic resampling (sportfusion.estimators.particles.systematic_resample) of the weights
  * exp(lw[idx[i]] - top), i < size, normalised; count draws written to out (indices into idx) */

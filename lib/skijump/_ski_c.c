@@ -19,6 +19,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "../core/_buffers.h"
+
 #define N 22
 #define NP 253
 #define NSTD 28
@@ -52,24 +54,6 @@
    than the clearing */
 static const double ZEROS[N];
 #define ZERO(a) memcpy(a, ZEROS, sizeof(a))
-
-typedef struct {
-    Py_buffer view;
-    int held;
-} Buf;
-
-/* count < 0: any number of items (at least -count) */
-static int get_buf(PyObject *obj, Buf *b, Py_ssize_t count, int writable, const char *name) {
-    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
-    b->held = 0;
-    if (PyObject_GetBuffer(obj, &b->view, flags) < 0) return -1;
-    b->held = 1;
-    if (b->view.itemsize != 8 || (count >= 0 && b->view.len != 8 * count) || (count < 0 && b->view.len < 8 * -count)) {
-        PyErr_Format(PyExc_ValueError, "%s: expected %zd float64 items, got %zd bytes", name, count, b->view.len);
-        return -1;
-    }
-    return 0;
-}
 
 static void mbo(const double *q, double M[3][3]) {
     double q0 = q[0], q1 = q[1], q2 = q[2], q3 = q[3];
@@ -694,8 +678,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
             res = Py_BuildValue("ni", fail, phase);
         }
     }
-    for (int i = 0; i <= k && i < 24; i++)
-        if (b[i].held) PyBuffer_Release(&b[i].view);
+    release(b, k < 24 ? k + 1 : 24); /* the buffers after the one that failed were never taken */
     return res;
 }
 
