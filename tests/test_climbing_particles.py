@@ -232,6 +232,12 @@ def _start(t, v, cov, grip, route, start, params, seed):
     return m, n, k0, model, r_ids, r_pos, s_ids, which, pos, psi, lab, add_pos, add_psi, u_res, horiz, temper
 
 
+def _predict(j, k0, pos, psi, add_pos, add_psi, horiz, model):
+    """Eq 17 from step j to j + 1 for every particle, with the noise of ``_start``."""
+    pos = pos + add_pos[j - k0] + np.outer(np.cos(psi), horiz[j]) + np.outer(np.sin(psi), model.kstep[j])
+    return pos, psi + add_psi[j - k0]
+
+
 def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     """The filter one step at a time (as before it ran over blocks): the reference for the block form."""
     from sportfusion.estimators.particles import reweight
@@ -244,9 +250,7 @@ def _filter_step_by_step(t, v, cov, grip, route, start, params, seed):
     hist_w = np.zeros((n, m))
     for k in range(k0, n):
         if k > k0:
-            j = k - 1
-            pos = pos + add_pos[j - k0] + np.outer(np.cos(psi), horiz[j]) + np.outer(np.sin(psi), model.kstep[j])
-            psi = psi + add_psi[j - k0]
+            pos, psi = _predict(k - 1, k0, pos, psi, add_pos, add_psi, horiz, model)
         if grip[k]:
             ll, lab = grip_log_likelihood(pos, r_pos, r_ids, params.hold)
             w = reweight(w, ll * temper[k])
@@ -289,9 +293,7 @@ def _stratified_step_by_step(t, v, cov, grip, route, start, params, seed):
     merged_at = -1
     for k in range(k0, n):
         if k > k0:
-            j = k - 1
-            pos = pos + add_pos[j - k0] + np.outer(np.cos(psi), horiz[j]) + np.outer(np.sin(psi), model.kstep[j])
-            psi = psi + add_psi[j - k0]
+            pos, psi = _predict(k - 1, k0, pos, psi, add_pos, add_psi, horiz, model)
         if grip[k]:
             ll, lab = grip_log_likelihood(pos, r_pos, r_ids, params.hold)
             lw = lw + ll * temper[k]
