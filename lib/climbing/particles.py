@@ -336,6 +336,7 @@ class _Model:
         self.step = 0.5 * (v[1:] + v[:-1]) * dt[:, None]  # trapezoid = dT v + dT^2 a / 2 (eq 6)
         self.kstep = np.cross(up, self.step)  # up x step
         self.ustep = (self.step @ up)[:, None] * up  # component along up
+        self.horiz = self.step - self.ustep  # component across up (what the yaw error turns)
         self.chol = np.linalg.cholesky(cov_v[:-1] + 1e-12 * np.eye(3)) * dt[:, None, None]  # e_p = dT n_v
         self.yaw_sigma = np.sqrt(yaw_psd * dt)
 
@@ -436,7 +437,7 @@ def run_particle_filter(
     normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
     add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
     u_res = rng.random(n)
-    horiz = model.step - model.ustep
+    horiz = model.horiz
     grips = np.flatnonzero(grip)
     pos = np.ascontiguousarray(pos.T)
     # The filter runs over blocks of steps at once: eq 17 is a cumulative sum, the weights over a block's
@@ -608,7 +609,7 @@ def _backward_path_c(  # noqa: ANN202
     c64 = np.ascontiguousarray
     ext.backward_paths(
         n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
-        c64(state), c64(model.step - model.ustep), c64(model.kstep), c64(model.ustep),
+        c64(state), c64(model.horiz), c64(model.kstep), c64(model.ustep),
         c64(model.chol), c64(model.yaw_sigma), path,
     )  # fmt: skip
     return path
@@ -633,7 +634,7 @@ def _backward(
     n, m = w.shape
     if n - 1 <= k0:
         return backward_simulation(w, anc, lambda k, i, j: np.zeros(i.size), rng, k0, 0)
-    steps = np.stack((model.step - model.ustep, model.kstep, model.ustep), axis=1)  # (n-1, 3, 3)
+    steps = np.stack((model.horiz, model.kstep, model.ustep), axis=1)  # (n-1, 3, 3)
     a = np.empty((n, m, 4))  # rows k0..n-2 are set (the others are never read)
     b = np.empty((n, m, 4))
     for c0 in range(k0, n - 1, 1024):  # in blocks of steps: the temporaries stay small
