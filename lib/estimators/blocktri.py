@@ -48,6 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.estimators._banded import native as _native
+
 __all__ = [
     "CyclicReduction",
     "BlockCholesky",
@@ -87,13 +89,6 @@ class BlockCholesky:
     n: int
     l: np.ndarray  # noqa: E741 - (n, b, b)
     w: np.ndarray  # (n - 1, b, b)
-
-
-def _native():  # noqa: ANN202
-    """The C kernels (``_banded_c``: block Cholesky, solve, diagonal of the inverse), or None."""
-    from sportfusion.estimators._banded import native
-
-    return native()
 
 
 def _t(a: np.ndarray) -> np.ndarray:
