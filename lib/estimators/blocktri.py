@@ -133,7 +133,7 @@ def factor(d: np.ndarray, e: np.ndarray) -> CyclicReduction | BlockCholesky:
     if ext is not None and b <= 32:
         lf = np.empty_like(d)
         w = np.empty((max(n - 1, 0), b, b))
-        bad = ext.bt_factor(n, b, d, e if n > 1 else np.zeros(0), lf, w)
+        bad = ext.bt_factor(n, b, d, e, lf, w)
         if bad >= 0:
             raise np.linalg.LinAlgError(f"block {bad} of the block-tridiagonal matrix: not positive definite")
         return BlockCholesky(n, lf, w)
@@ -163,7 +163,7 @@ def solve(f: CyclicReduction | BlockCholesky, r: np.ndarray) -> np.ndarray:
         r = r[..., None]
     if isinstance(f, BlockCholesky):
         x = np.array(r, dtype=np.float64, order="C")  # solved in place
-        _native().bt_solve(f.n, f.l.shape[1], x.shape[2], f.l, f.w if f.n > 1 else np.zeros(0), x)
+        _native().bt_solve(f.n, f.l.shape[1], x.shape[2], f.l, f.w, x)
         return x[..., 0] if vec else x
     kept = []
     for lev in f.levels:
@@ -187,7 +187,7 @@ def diagonal_of_inverse(f: CyclicReduction | BlockCholesky) -> np.ndarray:
     """The diagonal blocks (n, b, b) of ``A^-1`` (selected inversion, O(n b^3))."""
     if isinstance(f, BlockCholesky):
         g = np.empty_like(f.l)
-        _native().bt_diag_inverse(f.n, f.l.shape[1], f.l, f.w if f.n > 1 else np.zeros(0), g)
+        _native().bt_diag_inverse(f.n, f.l.shape[1], f.l, f.w, g)
         return g
     g = f.last  # diagonal blocks of the current level's inverse
     c = np.zeros((0, *g.shape[1:]))  # its first off-diagonal blocks G[k, k+1]
