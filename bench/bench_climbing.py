@@ -117,11 +117,11 @@ def stats(e: np.ndarray) -> tuple[float, ...]:
 def report(rows: list[dict]) -> None:
     print(f"\nAccuracy over {len(rows)} simulated trials (errors [m], every IMU sample after the first grip)")
     print(f"{'':18s}{'25% Qtl.':>10s}{'Median':>10s}{'75% Qtl.':>10s}{'RMSE':>10s}{'Max':>10s}")
-    meds = {}
+    meds, rmses = {}, {}
     for name, paper in PAPER.items():
         e = np.concatenate([r["err"][name] for r in rows])
         s = stats(e)
-        meds[name] = s[1]
+        meds[name], rmses[name] = s[1], s[3]
         print(f"{name + ' (ours)':18s}" + "".join(f"{v:10.3f}" for v in s))
         print(f"{name + ' (paper)':18s}" + "".join(f"{v:10.3f}" for v in paper))
     e = np.concatenate([r["err"]["FFBSm smoother"] for r in rows])
@@ -132,10 +132,15 @@ def report(rows: list[dict]) -> None:
         f"PF smoother = backward simulation (O(M)); per-trial medians: backward {np.median(bs):.3f} m, "
         f"FFBSm {np.median(ff):.3f} m (median of trial medians), backward better in {int(np.sum(bs < ff))}/{len(rows)}"
     )
-    order = meds["Transition-Only"] > meds["PF"] > meds["PF smoother"]
+    names = ("Transition-Only", "PF", "PF smoother")
+    order = meds[names[0]] > meds[names[1]] > meds[names[2]]
+    order_rmse = rmses[names[0]] > rmses[names[1]] > rmses[names[2]]
     print(
-        f"\nordering transition-only > PF > PF smoother (medians): {'yes' if order else 'NO'}; "
-        f"PF smoother median {meds['PF smoother']:.3f} m (target <= 0.133)"
+        f"\nordering transition-only > PF > PF smoother: medians {'yes' if order else 'NO'}, "
+        f"RMSE {'yes' if order_rmse else 'NO'}; PF smoother median {meds['PF smoother']:.3f} m (target <= 0.133)\n"
+        "  (transition-only starts from the true position at the first grip, which a user does not have; with the\n"
+        "  magnetometer disturbance modelled its local error can be below the PF's, whose positions at a grip spread\n"
+        "  within the hold model's 0.10 m ball)"
     )
     # failure cases
     bad_start = [r for r in rows if not r["start_ok"]]

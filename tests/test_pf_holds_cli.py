@@ -141,3 +141,26 @@ def test_descent_after_opens_the_wall_holds(tmp_path):
     assert set(never.tolist()) <= route | {-1, -2}
     assert set(default[t < sim.descent_time].tolist()) <= route | {-1, -2}
     assert set(default[t > sim.descent_time].tolist()) & off_route  # found at least one of the wall's holds
+
+
+def test_paper_noise_model_options_reach_the_library(trial):
+    """--grip-count 0 --mag-disturbance 0 is the paper's model: the same output as the library with
+    ``grip_count=None`` and ``mag_disturbance=0``; the defaults differ from it."""
+    from sportfusion.climbing.holds import read_holds
+    from sportfusion.climbing.particles import PFParams
+    from sportfusion.climbing.track import TrackOptions, track_holds
+    from sportfusion.climbing.transition import TransitionParams
+
+    sim, data, folder, holds = trial
+    code, out, err = _invoke(["--holds", str(holds), "--grip-count", "0", "--mag-disturbance", "0", "-q"], data)
+    assert code == 0, err
+    path = folder / "paper.parquet"
+    path.write_bytes(out)
+    table, _ = sfio.read_table(str(path))
+    src, meta = sfio.read_table(pa.BufferReader(data))
+    paper = TrackOptions(pf=PFParams(grip_count=None), transition=TransitionParams(mag_disturbance=0.0))
+    ref = track_holds(src, meta, read_holds(str(holds)), paper)
+    ours = track_holds(src, meta, read_holds(str(holds)))
+    x = schema.floats(table, "x")
+    assert np.allclose(x, ref.columns["x"].to_numpy(zero_copy_only=False), rtol=0, atol=1e-12, equal_nan=True)
+    assert not np.allclose(x, ours.columns["x"].to_numpy(zero_copy_only=False), rtol=0, atol=1e-3, equal_nan=True)
