@@ -68,6 +68,9 @@ seeds 0-99 | 2000-2199 | 3000-3099, filter seed 0)::
     disturbance, c = None      3 .161/1.22 |  6 .138/2.63 | 1 .198/1.81   10 of 400
     disturbance, c = 2         1 .133/1.16 |  5 .120/1.93 | 0 .115/1.55    6 of 400
 
+Off the default simulation (paper's model -> these defaults, wrong starts and smoother RMSE [m]): 60 Hz
+IMU, seeds 0-99: 13 -> 1 of 100, .480 -> .130; panels' disturbances 0-0.01 instead of 0.2-0.6, seeds 0-79:
+5 -> 1 of 80, .250 -> .123; 0.5-1.0, seeds 0-79: 10 -> 1 of 80, .304 -> .124.
 (also tried with the disturbance model: yaw_psd 0.01 instead of 0.09: 6 of 300 on the first two sets,
 with c = 2 as well: 7 of 400; magnetometer 1-sigma 1.0 or 10 instead of 3.0 at 100 Hz: 9 and 10 of 300.)
 The trials still wrong have start holds 0.2-0.7 m apart whose tracks both fit the route's holds within
