@@ -51,15 +51,10 @@ Tempered grips (``PFParams.grip_count``, default 2; None = the paper): eq 18 mul
 every 100 Hz sample of a grip, so one grip of ``L`` samples counts ``L`` times although its samples are
 not independent; with ``grip_count = c`` each sample's log-likelihood is weighted by ``c / L``
 (:func:`grip_weights`, the grip lengths taken from the whole detected-grip mask), so that every grip
-counts ``c`` times.  With the paper's white magnetometer noise in the transition estimator this moved
-the wrong starts by a few trials only (tuning seeds 0-99 | 2000-2099 | 2100-2199, filter seed 0; wrong
-start holds, smoother median / RMSE / max [m])::
-
-    None (paper)           7 .121/.362/4.37 | 4 .110/.253/1.97 | 7 .106/.307/2.88   18 wrong
-    c = 2                  6 .120/.296/4.23 | 2 .109/.247/1.75 | 5 .110/.294/2.97   13 wrong
-
-The transition estimator's heading followed the wall's magnetic disturbances (a move's displacement
-off by 0.19-0.20 m RMS while its covariance said a few cm); once its magnetometer noise counts the
+counts ``c`` times.  With the paper's white magnetometer noise in the transition estimator, c = 2 moved
+the wrong starts by a few trials only (18 -> 13 of 300 on tuning seeds 0-99, 2000-2199).  The transition
+estimator's heading followed the wall's magnetic disturbances (a move's displacement off by 0.19-0.20 m
+RMS while its covariance said a few cm); once its magnetometer noise counts the
 disturbance once per second (``TransitionParams.mag_disturbance``) that error falls to 0.11 m and
 tempering pays (wrong starts, smoother RMSE -- the RMS over trials of each trial's RMSE -- / max [m];
 seeds 0-99 | 2000-2199 | 3000-3099, filter seed 0)::
