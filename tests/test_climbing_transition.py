@@ -192,6 +192,12 @@ def test_magnetometer_disturbance_counts_once_per_correlation_time():
     assert np.allclose(a.r_mag, b.r_mag * ratio, rtol=1e-12, atol=0)
     assert np.allclose(a.jm, b.jm * ratio, rtol=1e-12, atol=0)
     assert np.array_equal(a.r_dyn, b.r_dyn)
+    for bad in ({"mag_disturbance": -0.1}, {"mag_correlation_time": -1.0}, {"mag_disturbance": float("nan")}):
+        with pytest.raises(InputError, match="disturbance"):
+            tr.Problem(
+                prob.t, prob.acc, prob.gyr, prob.mag, prob.grip, prob.saturated, prob.m_world, prob.g_world,
+                tr.TransitionParams(**bad),
+            )  # fmt: skip
 
 
 def _move_errors(seed: int, params: tr.TransitionParams) -> np.ndarray:

@@ -132,6 +132,11 @@ class Problem:
         var_r = p.sigma_rot**2 + (p.rot_scale * w) ** 2 + c * p.saturated_rot_var
         var_v = p.sigma_vel**2 + (p.vel_scale * a) ** 2 + c * p.saturated_vel_var
         self.sig_dyn = np.sqrt(np.hstack([var_r, var_v]))  # (n-1, 6)
+        if not (p.mag_disturbance >= 0 and p.mag_correlation_time >= 0):
+            raise InputError(
+                f"magnetometer disturbance {p.mag_disturbance} over {p.mag_correlation_time} s; "
+                "expected a disturbance and a correlation time >= 0"
+            )
         dt_med = float(np.median(self.dt)) if self.dt.size else 1.0
         # per-sample magnetometer 1-sigma: white noise plus the disturbance counted once per correlation time
         self.sig_mag = float(np.sqrt(p.sigma_mag**2 + p.mag_disturbance**2 * p.mag_correlation_time / dt_med))
