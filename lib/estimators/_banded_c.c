@@ -617,32 +617,26 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
     return -1;
 }
 
+/* x (b x c) -= M y, M (b x b) read as m[i * si + j * sj]: (si, sj) = (b, 1) for W, (1, b) for W^T */
+static void bt_sub_prod(int b, int c, const double *m, int si, int sj, const double *y, double *x) {
+    for (int i = 0; i < b; i++)
+        for (int q = 0; q < c; q++) {
+            double v = 0.0;
+            for (int j = 0; j < b; j++) v += m[i * si + j * sj] * y[j * c + q];
+            x[i * c + q] -= v;
+        }
+}
+
 static void bt_solve(Py_ssize_t n, int b, int c, const double *l, const double *w, double *x) {
     const int bb = b * b, bc = b * c;
     for (Py_ssize_t k = 0; k < n; k++) { /* y_k = L_k^-1 (r_k - W_k-1^T y_k-1) */
         double *xk = x + k * bc;
-        if (k > 0) {
-            const double *wp = w + (k - 1) * bb, *yp = xk - bc;
-            for (int i = 0; i < b; i++)
-                for (int q = 0; q < c; q++) {
-                    double v = 0.0;
-                    for (int j = 0; j < b; j++) v += wp[j * b + i] * yp[j * c + q];
-                    xk[i * c + q] -= v;
-                }
-        }
+        if (k > 0) bt_sub_prod(b, c, w + (k - 1) * bb, 1, b, xk - bc, xk);
         bt_fwd(l + k * bb, b, xk, c);
     }
     for (Py_ssize_t k = n - 1; k >= 0; k--) { /* x_k = L_k^-T (y_k - W_k x_k+1) */
         double *xk = x + k * bc;
-        if (k + 1 < n) {
-            const double *wk = w + k * bb, *xn = xk + bc;
-            for (int i = 0; i < b; i++)
-                for (int q = 0; q < c; q++) {
-                    double v = 0.0;
-                    for (int j = 0; j < b; j++) v += wk[i * b + j] * xn[j * c + q];
-                    xk[i * c + q] -= v;
-                }
-        }
+        if (k + 1 < n) bt_sub_prod(b, c, w + k * bb, b, 1, xk + bc, xk);
         bt_bwd(l + k * bb, b, xk, c);
     }
 }
