@@ -121,3 +121,30 @@ def test_time_order_policy_properties(rows):
         Stream("g", np.repeat(out.t, 2), {"gnss_fix": np.repeat(out.columns["gnss_fix"].to_numpy(), 2)})
     )
     assert rep2.duplicates == out.t.size and rep2.conflicts == 0 and rep2.reordered == 0
+
+
+def test_to_arrow_float_columns_nulls_views_and_byte_order() -> None:
+    """NaN -> null; a strided view (a state column), float32 and big-endian input keep their values; the
+    float path builds its buffers without importing numpy.ma."""
+    import subprocess
+    import sys
+
+    from sportfusion.core import schema
+
+    x = np.arange(40.0).reshape(10, 4)
+    x[3, 1] = np.nan
+    col = schema.to_arrow("x", x[:, 1])
+    col.validate(full=True)
+    assert col.type == pa.float64() and col.null_count == 1
+    assert col.to_pylist() == [v if not np.isnan(v) else None for v in x[:, 1]]
+    for a in (np.array([1.5, 2.5], ">f8"), np.array([1.5, np.nan], np.float32), np.zeros(0)):
+        got = schema.to_arrow("x", a)
+        got.validate(full=True)
+        assert got.to_pylist() == [None if np.isnan(v) else float(v) for v in a]
+    code = (
+        "import sys, numpy as np; from sportfusion.core import schema; "
+        "schema.to_arrow('x', np.array([1.0, np.nan])); schema.to_arrow('x', np.ones(5)); "
+        "print('numpy.ma' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -22,6 +22,7 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.magdisturb import describe as describe_mag
 from sportfusion.core.magdisturb import mag_disturbed
+from sportfusion.core.stats import median
 
 IMU = tuple(f"{s}_{a}" for s in ("acc", "gyr", "mag") for a in "xyz")
 
@@ -80,7 +81,7 @@ def _normalised_mag(table: pa.Table, meta: dict[str, Any], rows: np.ndarray) -> 
     ok = np.isfinite(norm) & (norm > 0)
     if not ok.any():
         raise InputError("the magnetometer has no valid samples on the IMU rows; expected mag_x, mag_y, mag_z")
-    return mag / np.median(norm[ok])
+    return mag / median(norm[ok])
 
 
 def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: TrackOptions | None = None) -> Track:

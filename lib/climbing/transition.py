@@ -45,6 +45,7 @@ import numpy as np
 from sportfusion.climbing import _so3
 from sportfusion.climbing.orientation import complementary_filter
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 from sportfusion.estimators import blocktri
 
 if TYPE_CHECKING:  # imported where used: a command that never calls it does not pay the import
@@ -137,7 +138,7 @@ class Problem:
                 f"magnetometer disturbance {p.mag_disturbance} over {p.mag_correlation_time} s; "
                 "expected a disturbance and a correlation time >= 0"
             )
-        dt_med = float(np.median(self.dt)) if self.dt.size else 1.0
+        dt_med = float(median(self.dt)) if self.dt.size else 1.0
         # per-sample magnetometer 1-sigma: white noise plus the disturbance counted once per correlation time
         self.sig_mag = float(np.sqrt(p.sigma_mag**2 + p.mag_disturbance**2 * p.mag_correlation_time / dt_med))
         self.prior_sig = np.r_[[p.sigma_acc_bias] * 3, [p.sigma_gyr_bias] * 3, [p.sigma_mag_bias] * 3]
@@ -404,7 +405,7 @@ def initial_state(prob: Problem) -> State:
     """§III-A initial guess: complementary-filter orientations, v = 0 at grips, propagated between."""
     up = -prob.g_world / np.linalg.norm(prob.g_world)
     g = float(np.linalg.norm(prob.g_world))
-    bg = np.median(prob.gyr[prob.grip], axis=0) if prob.grip.sum() >= 10 else np.zeros(3)
+    bg = median(prob.gyr[prob.grip], axis=0) if prob.grip.sum() >= 10 else np.zeros(3)
     mag = np.where(prob.mag_ok[:, None], prob.mag, np.nan)
     r = complementary_filter(prob.t, prob.acc, prob.gyr, mag, prob.m_world, up, g, bg)
     a_w = np.einsum("nij,nj->ni", r, prob.acc) + prob.g_world

@@ -9,6 +9,7 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.core import schema
+from sportfusion.core.stats import median
 
 #: Sensor groups: name -> a column whose non-null rows mark that sensor's samples.
 SENSORS = {
@@ -46,7 +47,7 @@ def sensor_rates(table: pa.Table) -> list[dict[str, Any]]:
         ts = t[valid]
         if ts.size == 0:
             continue
-        rate = float(1.0 / np.median(np.diff(ts))) if ts.size > 1 else float("nan")
+        rate = float(1.0 / median(np.diff(ts))) if ts.size > 1 else float("nan")
         out.append(
             {
                 "sensor": sensor,

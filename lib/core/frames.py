@@ -44,6 +44,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import normal_gravity
 from sportfusion.core.rotations import local_to_ned, ned_to_local
 from sportfusion.core.session import with_columns
+from sportfusion.core.stats import median
 
 if TYPE_CHECKING:  # imported where used: a command that never calls it does not pay the import
     from pyproj import Transformer
@@ -380,7 +381,7 @@ def track_heights(table: pa.Table, geoid_offset: float | None = None) -> Heights
     if only_msl.any() and geoid_offset is not None:
         offset, source = float(geoid_offset), "--geoid-offset"
     elif only_msl.any() and both.any():
-        offset, source = float(np.median(h[both] - msl[both])), "receiver"
+        offset, source = float(median(h[both] - msl[both])), "receiver"
     if offset is not None:
         h = np.where(only_msl, msl + offset, h)
     ref = "ellipsoidal" if np.isfinite(h).any() else ("msl" if np.isfinite(msl).any() else "none")

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sportfusion.core.stats import median
+
 
 def sampling_gaps(
     t: np.ndarray, factor: float = 1.5, pauses: list[tuple[float, float]] | None = None
@@ -29,7 +31,7 @@ def sampling_gaps(
     if t.size < 3:
         return 0, []
     d = np.diff(t)
-    med = float(np.median(d))
+    med = float(median(d))
     if med <= 0:
         return 0, []
     long = np.flatnonzero(d > factor * med)

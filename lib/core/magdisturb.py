@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sportfusion.core.stats import median
+
 
 def mag_disturbed(
     t: np.ndarray,
@@ -70,7 +72,7 @@ def mag_disturbed(
     bad = np.zeros(m.shape[0], dtype=bool)
     if not ok.any():
         return bad
-    ref = float(np.median(n[ok])) if ref_norm is None else float(ref_norm)
+    ref = float(median(n[ok])) if ref_norm is None else float(ref_norm)
     bad[ok] = np.abs(n[ok] / ref - 1.0) > norm_tol
     if acc is not None and ref_dip_deg is not None:
         a = np.asarray(acc, dtype=float)

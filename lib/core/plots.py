@@ -16,6 +16,7 @@ import pyarrow as pa
 
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -133,7 +134,7 @@ def unwrap_deg(angle: np.ndarray) -> np.ndarray:
     ok = np.isfinite(a)
     if ok.sum() > 1:
         a[ok] = np.unwrap(a[ok], period=360.0)
-        a -= 360.0 * np.round(np.median(a[ok]) / 360.0)
+        a -= 360.0 * np.round(median(a[ok]) / 360.0)
     return a
 
 

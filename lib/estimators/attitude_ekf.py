@@ -85,6 +85,7 @@ from sportfusion.core.rotations import (
     rotvec_from_quat,
     skew,
 )
+from sportfusion.core.stats import median
 from sportfusion.estimators import blocktri
 from sportfusion.estimators.kalman import Measurement, ekf_rts
 
@@ -534,7 +535,7 @@ def gyro_vector_smoother(
             rho = np.linalg.norm(body[:, i], axis=-1)
             use[:, i] &= rho > 0
             if use[:, i].any():  # the direction's 1-sigma [rad] as the sensor's [its unit] at its median length
-                sigma[:, i] *= float(np.median(rho[use[:, i]]))
+                sigma[:, i] *= float(median(rho[use[:, i]]))
             with np.errstate(invalid="ignore", divide="ignore"):
                 ref[:, i] /= np.linalg.norm(ref[:, i], axis=-1, keepdims=True)
             use[:, i] &= np.isfinite(ref[:, i]).all(axis=-1)

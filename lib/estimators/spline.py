@@ -37,6 +37,7 @@ import numpy as np
 
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import time_step_problem
+from sportfusion.core.stats import median
 from sportfusion.estimators import _banded
 
 __all__ = [
@@ -563,7 +564,7 @@ def gcv_lambda(t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> flo
         return 1.0
     h = np.diff(t)
     # alpha ~ (time scale)^3 * weight density: bracket generously around the data's spacing
-    scale = np.log10(np.median(h) ** 3 * np.median(w))
+    scale = np.log10(median(h) ** 3 * median(w))
     grid = np.linspace(scale - 6, scale + 12, 37)
 
     def score(e: float) -> float:
@@ -656,7 +657,7 @@ def epoch_weights(w_amb: np.ndarray, sigma_pos: np.ndarray | None) -> np.ndarray
     for c in range(s2.shape[1]):
         if ok2[:, c].all():  # nothing to fill (and the median of 1e6 sigmas costs 10-30 ms)
             continue
-        fill = np.median(s2[ok2[:, c], c]) if ok2[:, c].any() else np.median(s[ok])
+        fill = median(s2[ok2[:, c], c]) if ok2[:, c].any() else median(s[ok])
         s2[~ok2[:, c], c] = fill
     s = s2.reshape(s.shape)
     return (w_amb[:, None] / s) if s.ndim == 2 else w_amb / s

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from sportfusion.core.stats import median
 from sportfusion.estimators.spline import _minv_diag, penalty_from_lambda, smoothing_spline
 
 TUKEY_C = 4.685
@@ -49,7 +50,7 @@ def tukey(z: np.ndarray, c: float = TUKEY_C, floor: float = 1e-6) -> np.ndarray:
 
 def _scale(e: np.ndarray, sigma: np.ndarray | None, floor: float) -> np.ndarray:
     """Per-epoch, per-axis scale: max(stated sigma, 1.4826 MAD of the residuals, floor)."""
-    mad = 1.4826 * np.median(np.abs(e - np.median(e, axis=0)), axis=0)
+    mad = 1.4826 * median(np.abs(e - median(e, axis=0)), axis=0)
     mad = np.maximum(mad, max(floor, 1e-9))
     s = np.broadcast_to(mad, e.shape).copy()
     if sigma is not None:
@@ -106,7 +107,7 @@ def velocity_residuals(t: np.ndarray, y: np.ndarray, vel: np.ndarray, window: fl
     half = 0.5 * window
     lo = np.searchsorted(tv, tv - half, side="left")
     hi = np.searchsorted(tv, tv + half, side="right")
-    med = np.array([np.median(d[a:b], axis=0) for a, b in zip(lo, hi, strict=True)])
+    med = np.array([median(d[a:b], axis=0) for a, b in zip(lo, hi, strict=True)])
     out[idx, :k] = d - med
     return out
 
@@ -150,7 +151,7 @@ def speed_spikes(
                 continue
             near = np.r_[max(a - 3, 0) : a, b + 1 : min(b + 4, n - 1)]
             near = near[ok[near]]
-            expect = np.median(d[near], axis=0) if near.size else np.zeros(2)
+            expect = median(d[near], axis=0) if near.size else np.zeros(2)
             ja, jb = d[a] - expect, d[b] - expect
             if np.linalg.norm(ja + jb) < 0.5 * max(np.linalg.norm(ja), np.linalg.norm(jb)):
                 bad[a + 1 : b + 1] = True

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 
 
 # --------------------------------------------------------------------------- relative anchors (eqs 2-6)
@@ -216,7 +217,7 @@ def turn_numbers(t: np.ndarray, side: np.ndarray) -> np.ndarray:
     if t.size < 2:
         return n
     dt = np.diff(t)
-    med = float(np.median(dt))
+    med = float(median(dt))
     for i in range(1, t.size):
         k = dt[i - 1] / med if med > 0 else 1.0
         if k < 0.7:
@@ -277,7 +278,7 @@ def _local_offsets(g_hat: np.ndarray, survey: np.ndarray, ids: np.ndarray, k: in
     out = np.empty_like(g_hat)
     for i in range(g_hat.shape[0]):
         near = np.argsort(np.abs(idx - i), kind="stable")[:k]
-        out[i] = np.median(diff[near], axis=0)
+        out[i] = median(diff[near], axis=0)
     return out
 
 
@@ -390,7 +391,7 @@ def match_anchors(
     ok = first >= 0
     if not ok.any():
         raise InputError("anchor matching found no unambiguous pair between the crossings and the survey")
-    offset = np.median(survey[first[ok]] - g_hat[ok], axis=0)
+    offset = median(survey[first[ok]] - g_hat[ok], axis=0)
     # 4. absolute coordinates (eqs 10-11); the offset is re-estimated from the absolute matches once
     fs = np.column_stack([survey, p.w_side * ssd, p.w_turn * n_num])
     local = (
@@ -405,7 +406,7 @@ def match_anchors(
         ids = _increasing(ids)
         if (ids >= 0).sum() < 3:
             break
-        offset = np.median(survey[ids[ids >= 0]] - g_hat[ids >= 0], axis=0)
+        offset = median(survey[ids[ids >= 0]] - g_hat[ids >= 0], axis=0)
         local = _local_offsets(g_hat, survey, ids, p.neighbours)
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)

@@ -41,6 +41,7 @@ import pyarrow as pa
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 from sportfusion.gates.magnet import (
     MagnetCalibration,
     default_calibration,
@@ -210,7 +211,7 @@ def detect_gates(
     det = GateDetection(calibration=cal)
     if t_mag.size < 5:
         return det
-    rate = 1.0 / float(np.median(np.diff(t_mag)))
+    rate = 1.0 / float(median(np.diff(t_mag)))
     bn = np.linalg.norm(mag, axis=1)
     if p.self_calibrate:
         cal_norm, det.spread = self_calibrated_norm(mag)
@@ -220,7 +221,7 @@ def detect_gates(
     from scipy.signal import find_peaks
 
     e = b - 1.0
-    det.noise = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    det.noise = 1.4826 * float(median(np.abs(e - median(e))))
     det.threshold = max(p.threshold, p.noise_k * det.noise)
     peaks, _ = find_peaks(e, height=det.threshold, distance=max(1, int(p.min_separation * rate)))
     peaks = peaks[_half_height_width(e, peaks) <= max(1.0, p.max_width * rate)]

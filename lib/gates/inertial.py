@@ -32,6 +32,7 @@ from sportfusion.core.rotations import (
     quat_from_rotvec,
     quat_multiply,
 )
+from sportfusion.core.stats import median
 
 
 @dataclass
@@ -59,7 +60,7 @@ def static_windows(
     InputError
         When either run is shorter than ``min_duration`` [s] (the EKS needs them for its zero-velocity updates).
     """
-    fs = 1.0 / float(np.median(np.diff(t)))
+    fs = 1.0 / float(median(np.diff(t)))
     w = max(3, int(round(window * fs)))
 
     def mstd(x: np.ndarray) -> np.ndarray:

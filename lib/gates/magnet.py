@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 
 MU0_4PI = 1e-7  # mu_0 / (4 pi) [T m / A]
 
@@ -211,7 +212,7 @@ def self_calibrated_norm(mag: np.ndarray, iterations: int = 4, tukey_c: float = 
         calibrated one).
     """
     n = np.linalg.norm(mag, axis=1)
-    med = float(np.median(n)) if n.size else 1.0
+    med = float(median(n)) if n.size else 1.0
     if not np.isfinite(med) or med <= 0:
         return np.ones_like(n), 0.0
     y = n / med
@@ -227,7 +228,7 @@ def self_calibrated_norm(mag: np.ndarray, iterations: int = 4, tukey_c: float = 
         coef = np.linalg.solve(lhs, rhs)
         fit = feats @ coef
         r = y - fit
-        s = 1.4826 * float(np.median(np.abs(r - np.median(r))))
+        s = 1.4826 * float(median(np.abs(r - median(r))))
         if not np.isfinite(s) or s <= 0:
             break
         z = r / (tukey_c * s)
@@ -239,5 +240,5 @@ def self_calibrated_norm(mag: np.ndarray, iterations: int = 4, tukey_c: float = 
         idx = np.arange(y.size)
         fit = fit.copy()
         fit[out] = np.interp(idx[out], idx[~out], fit[~out])
-    spread = 1.4826 * float(np.median(np.abs(fit - np.median(fit))))
+    spread = 1.4826 * float(median(np.abs(fit - median(fit))))
     return y / np.where(fit > 0.2, fit, 1.0), spread

@@ -49,6 +49,7 @@ import pyarrow as pa
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
+from sportfusion.core.stats import median
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, dialect, exact_seconds, floats, parse_unit, read_delimited, scaled_factor
 
@@ -275,7 +276,7 @@ def _normalised_mag(cols: dict[str, object], units: dict[str, str], warnings: li
     good = np.isfinite(m).all(axis=1)
     if not good.any():
         return
-    size = float(np.median(np.linalg.norm(m[good], axis=1)))
+    size = float(median(np.linalg.norm(m[good], axis=1)))
     if size < NORMALISED_BELOW:
         units.update({c: "1" for c in names})
         warnings.append(f"{'/'.join(names)} read as normalised (unit 1): median |m| = {size:.3g}, no Earth field in uT")

@@ -57,6 +57,7 @@ import pyarrow as pa
 from sportfusion.core.errors import InputError
 from sportfusion.core.rotations import dcm_from_euler, dcm_from_quat, quat_from_dcm
 from sportfusion.core.session import Stream
+from sportfusion.core.stats import median
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited
 
@@ -163,14 +164,14 @@ def _headings(r_gs: np.ndarray, acc: np.ndarray | None, mag: np.ndarray | None) 
             f = np.einsum("nij,nj->ni", r_ns, acc)
             good = np.isfinite(f).all(axis=1)
             if good.any():
-                ok &= bool(np.median(f[good, 2]) < -0.5 * np.median(np.linalg.norm(f[good], axis=1)))
+                ok &= bool(median(f[good, 2]) < -0.5 * median(np.linalg.norm(f[good], axis=1)))
         if mag is not None:
             m = np.einsum("nij,nj->ni", r_ns, mag)
             good = np.isfinite(m).all(axis=1) & (np.hypot(m[:, 0], m[:, 1]) > 0)
             if good.any():
                 h = np.degrees(np.arctan2(m[good, 1], m[good, 0]))
                 heading = float(
-                    np.degrees(np.angle(np.median(np.cos(np.radians(h))) + 1j * np.median(np.sin(np.radians(h)))))
+                    np.degrees(np.angle(median(np.cos(np.radians(h))) + 1j * median(np.sin(np.radians(h)))))
                 )
                 ok &= abs(heading) <= HEADING_TOL_DEG
         out[name] = (ok, heading)

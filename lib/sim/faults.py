@@ -25,6 +25,7 @@ import numpy as np
 import pyarrow as pa
 
 from sportfusion.core import schema
+from sportfusion.core.stats import median
 
 #: Default accelerometer range of a consumer/sports IMU [m/s^2] (16 g).
 ACC_RANGE = 16.0 * 9.80665
@@ -182,7 +183,7 @@ def mag_disturbance(
     t = schema.floats(table, "t")
     m = np.stack([schema.floats(table, c) for c in MAG], axis=-1)
     ok = np.isfinite(m).all(axis=1)
-    norm = float(np.median(np.linalg.norm(m[ok], axis=1))) if ok.any() else 1.0
+    norm = float(median(np.linalg.norm(m[ok], axis=1))) if ok.any() else 1.0
     d = rng.normal(size=3)
     d *= strength * norm / np.linalg.norm(d)
     w = np.clip(np.minimum(t - t0, t0 + duration - t) / max(ramp, 1e-9), 0.0, 1.0)

@@ -68,6 +68,7 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.events import set_events, true_runs
 from sportfusion.core.saturation import clipped_rows
+from sportfusion.core.stats import median
 from sportfusion.skijump.touchdown import impact_onset
 
 JUMP_EVENTS = ("takeoff", "touchdown")
@@ -253,7 +254,7 @@ def detect_jumps(
             continue
         ka, kb = found
         mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
-        flight = float(np.median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
+        flight = float(median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
         t_a, t_b = peak_time(tw, aw, ka), peak_time(tw, aw, kb)
         t_td, how = t_b - p.touchdown_offset, "peak"
         if p.touchdown_method == "onset":
@@ -283,7 +284,7 @@ def detect_jumps(
 
 def _flight_median(tw: np.ndarray, aw: np.ndarray, ka: int, kb: int, p: JumpParams) -> float:
     mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
-    return float(np.median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
+    return float(median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
 
 
 def peak_time(t: np.ndarray, a: np.ndarray, k: int) -> float:
@@ -389,7 +390,7 @@ def bridge_clipped(t: np.ndarray, acc: np.ndarray, clipped: np.ndarray, margin: 
     near = (np.abs(t - tc[j - 1]) <= margin) | (np.abs(t - tc[np.minimum(j, tc.size - 1)]) <= margin)
     from scipy.ndimage import median_filter
 
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    dt = float(median(np.diff(t))) if t.size > 1 else 1.0
     k = max(int(round(1.5 * margin / dt)) | 1, 3)
     med = np.linalg.norm(median_filter(np.nan_to_num(acc), size=(k, 1), mode="nearest"), axis=1)
     return np.where(near, med, norm)
@@ -405,7 +406,7 @@ def running_median(t: np.ndarray, x: np.ndarray, width: float) -> np.ndarray:
         return x
     from scipy.ndimage import median_filter
 
-    dt = float(np.median(np.diff(t)))
+    dt = float(median(np.diff(t)))
     k = int(round(width / dt)) if dt > 0 else 1
     k = k + 1 if k % 2 == 0 else k
     if k < 3:

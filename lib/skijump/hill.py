@@ -39,6 +39,7 @@ landing profile from the knoll base F (``x = 0``) to ``x_TD``
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
@@ -211,7 +212,13 @@ def _circle_below(name: str, x0: float, x1: float, c: np.ndarray, r: float) -> S
     return Segment(name, x0, x1, f, length)
 
 
-_GL_T, _GL_W = np.polynomial.legendre.leggauss(32)
+@functools.cache
+def _gauss_legendre() -> tuple[np.ndarray, np.ndarray]:
+    """32-point Gauss-Legendre nodes and weights on [-1, 1] (numpy.polynomial imported on first use: a
+    command that never takes a curve length does not pay its import)."""
+    from numpy.polynomial.legendre import leggauss
+
+    return leggauss(32)
 
 
 def _quad_length(dydx: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
@@ -221,8 +228,9 @@ def _quad_length(dydx: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarr
         Xa, Xb = np.broadcast_arrays(np.asarray(Xa, float), np.asarray(Xb, float))
         half = (Xb - Xa)[..., None] / 2
         mid = (Xb + Xa)[..., None] / 2
-        X = mid + half * _GL_T
-        return np.sum(half * _GL_W * np.sqrt(1 + dydx(X) ** 2), axis=-1)
+        nodes, weights = _gauss_legendre()
+        X = mid + half * nodes
+        return np.sum(half * weights * np.sqrt(1 + dydx(X) ** 2), axis=-1)
 
     return length
 

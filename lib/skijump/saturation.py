@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from sportfusion.core.saturation import clipped
+from sportfusion.core.stats import median
 
 
 def clipped_steps(t: np.ndarray, u: np.ndarray, cfg: Any) -> np.ndarray:
@@ -102,7 +103,7 @@ def mag_innovation_outliers(
     ok = np.isfinite(e)
     if ok.sum() < 10:
         return out
-    k = max(int(round(window / float(np.median(np.diff(t))))), 3)
+    k = max(int(round(window / float(median(np.diff(t))))), 3)
     box = np.ones(k)
     s2 = np.convolve(np.where(ok, e**2, 0.0), box, "same")
     cnt = np.convolve(ok.astype(float), box, "same")

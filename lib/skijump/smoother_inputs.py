@@ -33,6 +33,7 @@ from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.magfield import reference_field
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
+from sportfusion.core.stats import median
 from sportfusion.core.windows import window_mean_std
 from sportfusion.skijump.events import gnss_speed
 from sportfusion.skijump.hillfile import Hill
@@ -235,7 +236,7 @@ def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np
     i = np.clip(np.searchsorted(t, ts), 1, max(t.size - 1, 1))
     i = np.where((i > 0) & (np.abs(t[i - 1] - ts) <= np.abs(t[i] - ts)), i - 1, i)
     i = np.minimum(i, t.size - 1)
-    half = 0.5 * np.median(np.diff(t)) if t.size > 1 else 0.0
+    half = 0.5 * median(np.diff(t)) if t.size > 1 else 0.0
     keep = np.abs(t[i] - ts) <= half + 1e-9
     out[i[keep]] = vs[keep]
     return out
@@ -277,7 +278,7 @@ def session_events(
     elif "event" in table.column_names:
         t = schema.floats(table, "t")
         ev = np.asarray(table.column("event").to_pylist(), dtype=object)
-        step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+        step = float(median(np.diff(t))) if t.size > 1 else 0.0
         tol = 0.5 * step + 1e-9
         tos = sorted(_exact_times(t[ev == "takeoff"].tolist(), "takeoff", meta, tol))
         tds = sorted(_exact_times(t[ev == "touchdown"].tolist(), "touchdown", meta, tol))
@@ -307,7 +308,7 @@ def running_median(x: np.ndarray, size: int) -> np.ndarray:
     if x.size == 0:
         return x.copy()
     h = size // 2
-    return np.median(np.lib.stride_tricks.sliding_window_view(np.pad(x, h, mode="edge"), size), axis=1)
+    return median(np.lib.stride_tricks.sliding_window_view(np.pad(x, h, mode="edge"), size), axis=1)
 
 
 def constraint_windows(
@@ -521,7 +522,7 @@ def still_steps(
         if b - a < 3:
             still[a:b] = False
             continue
-        half = max(1, int(round(0.5 * cfg.zupt_window / np.median(np.diff(t[a:b])))))
+        half = max(1, int(round(0.5 * cfg.zupt_window / median(np.diff(t[a:b])))))
         k = np.arange(b - a)
         sd = window_mean_std(u[a:b], np.maximum(k - half, 0), np.minimum(k + half + 1, b - a))[1]  # centred
         still[a:b] &= (sd[:, 0:3].max(axis=1) < cfg.zupt_gyr) & (sd[:, 3:6].max(axis=1) < cfg.zupt_acc)

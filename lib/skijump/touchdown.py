@@ -37,6 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.core.stats import median
+
 
 @dataclass(frozen=True)
 class OnsetParams:
@@ -120,7 +122,7 @@ def impact_onset(t: np.ndarray, a: np.ndarray, k_peak: int, params: OnsetParams 
     t_lo, t_hi = float(t[k_lo - 1]), float(t[k_hi])
     sel = (t >= t_lo - p.lead) & (t <= t_hi) & np.isfinite(a)
     ts, ys = t[sel], a[sel]
-    step = float(np.median(np.diff(t[max(first, 0) : k_peak + 1]))) if k_peak - first > 1 else 0.0
+    step = float(median(np.diff(t[max(first, 0) : k_peak + 1]))) if k_peak - first > 1 else 0.0
     if not step > 0 or ts.size < 6:
         return None
     x0 = np.array([t_lo, math.log(h), math.log(max(0.5 * (t_hi - t_lo), step)), b0, b1])

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.rotations import dcm_from_quat, euler_from_dcm
+from sportfusion.core.stats import median
 from sportfusion.estimators.quest import _unit, quest
 
 #: Earth rotation rate [rad/s] (WGS84)
@@ -393,7 +394,7 @@ def dip_from_quiet(
     if not quiet.any():
         return float("nan"), 0
     s = -np.einsum("ni,ni->n", _unit(m[quiet]), _unit(f[quiet]))
-    return float(np.degrees(np.arcsin(np.median(np.clip(s, -1, 1))))), int(quiet.sum())
+    return float(np.degrees(np.arcsin(median(np.clip(s, -1, 1))))), int(quiet.sum())
 
 
 def quiet_mask(acc_body: np.ndarray, g: float, fs: float, window_s: float = 1.0, tol: float = 0.3) -> np.ndarray:

@@ -41,6 +41,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import G_STANDARD, normal_gravity
 from sportfusion.core.magfield import field_from_angles, inclination_declination, reference_field
 from sportfusion.core.rotations import interval_mean_rates, local_to_ned, ned_to_local
+from sportfusion.core.stats import median
 from sportfusion.skirace.attitude import (
     coriolis_ned,
     dip_from_quiet,
@@ -176,7 +177,7 @@ def dmc_session(
         warnings.append(f"{int((~good).sum())} accelerometer row(s) have no magnetometer sample around them: left null")
     rows, f_b, m_b = rows[good], f_b[good], m_b[good]
     dt = np.diff(t[rows])
-    fs = 1.0 / float(np.median(dt)) if dt.size else 1.0
+    fs = 1.0 / float(median(dt)) if dt.size else 1.0
     if lowpass_hz >= fs / 2:
         raise InputError(
             f"low-pass cut-off {lowpass_hz:g} Hz is at or above the Nyquist frequency {fs / 2:.4g} Hz of the "
@@ -290,7 +291,7 @@ def dmc_session(
                         f"magnetometer in {bias_unit!r}, no magnetic model for the field's intensity: the hard-iron "
                         "prior --mag-bias-sigma is scaled assuming 50 uT"
                     )
-                s_bias *= float(np.median(np.linalg.norm(m_b, axis=1))) / intensity
+                s_bias *= float(median(np.linalg.norm(m_b, axis=1))) / intensity
             try:
                 res = gyro_dmc_attitude(
                     t[rows],
@@ -434,7 +435,7 @@ def session_site(table: pa.Table, meta: dict) -> tuple[float, float, float] | No
         if ok.any():
             h = floats(table, "h") if "h" in table.column_names else np.zeros_like(lat)
             hh = h[ok & np.isfinite(h)]
-            return float(np.median(lat[ok])), float(np.median(lon[ok])), float(np.median(hh)) if hh.size else 0.0
+            return float(median(lat[ok])), float(median(lon[ok])), float(median(hh)) if hh.size else 0.0
     origin = (meta.get("frame") or {}).get("origin")
     if origin:
         return float(origin[0]), float(origin[1]), float(origin[2])
@@ -464,7 +465,7 @@ def dmc_table(
     if when is None:
         epoch = epoch_unix(meta)
         if epoch is not None:
-            when = epoch + float(np.median(t))
+            when = epoch + float(median(t))
     hill = meta.get("hill") or {}
     g0 = options.pop("g0", None) or hill.get("g0")
     unit = (meta.get("units") or {}).get("mag_x")

@@ -40,6 +40,7 @@ import pyarrow as pa
 
 from sportfusion.core.errors import InputError
 from sportfusion.core.rotations import ned_to_local
+from sportfusion.core.stats import median
 from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, smoothing_spline
 from sportfusion.estimators.spline_gaps import gap_std
 from sportfusion.estimators.spline_robust import robust_weights
@@ -148,7 +149,7 @@ def smooth_track(
                 sk = None
                 break
             if not ok[:, c].all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
-                sk[~ok[:, c], c] = np.median(sk[ok[:, c], c])
+                sk[~ok[:, c], c] = median(sk[ok[:, c], c])
     rw = np.ones(k.size)
     if robust:
         vk = None if vel is None else np.asarray(vel, float)[k]
@@ -171,7 +172,7 @@ def smooth_track(
     # rows that get a value: inside the span and not in a gap longer than max_gap (an epoch always does;
     # only the rows without a position are searched among the epochs)
     n = t.size
-    step = float(np.median(np.diff(tk)))
+    step = float(median(np.diff(tk)))
     in_gap = np.zeros(n, bool)
     too_long = np.zeros(n, bool)
     cover = has.copy()

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 from sportfusion.skijump.video.markers import Markers
 from sportfusion.skijump.video.measure import JumpReading
 from sportfusion.skijump.video.reader import open_video
@@ -197,7 +198,7 @@ def grid_image(video: str | Path, step: int = 50, most: int = 25) -> np.ndarray:
         cap.release()
     if not frames:
         raise InputError(f"cannot read any frame of video {video}; expected a video OpenCV can decode")
-    img = np.median(np.stack(frames), axis=0).astype(np.uint8)
+    img = median(np.stack(frames), axis=0).astype(np.uint8)
     h, w = img.shape[:2]
     over = img.copy()
     for x in range(0, w, step):

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 from sportfusion.skijump.video.markers import Markers
 
 #: Scale of ``u`` inside the monomials [m] (conditioning of the fit).
@@ -224,5 +225,5 @@ def fit_slope_map(
     if not np.isfinite(rms):
         raise InputError("the markers map to infinity in the fitted homography; expected markers seen from one side")
     w = np.c_[pix, np.ones(len(pix))] @ np.linalg.inv(M[:, :3]).T
-    side = 1.0 if np.median(w[:, 2]) > 0 else -1.0
+    side = 1.0 if median(w[:, 2]) > 0 else -1.0
     return SlopeMap(M, s0, rms, len(m), (float(m.distance.min()), float(m.distance.max())), curved, side)

@@ -60,6 +60,7 @@ import cv2
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 from sportfusion.skijump.video.calibration import SlopeMap, fit_slope_map
 from sportfusion.skijump.video.markers import Markers, check_in_frame
 from sportfusion.skijump.video.reader import (
@@ -286,7 +287,7 @@ def read_skis(path: str | Path, markers: Markers, progress: Progress = _no_progr
     obs = [o for o in obs if not o.touches_border]
     if obs:
         lengths = np.array([o.ends[1] - o.ends[0] for o in obs])
-        obs = [o for o, n in zip(obs, lengths, strict=True) if n >= 0.6 * np.median(lengths)]
+        obs = [o for o, n in zip(obs, lengths, strict=True) if n >= 0.6 * median(lengths)]
     if len(obs) < 6:
         raise InputError(
             f"the skis were found in only {len(obs)} frame(s); expected the jumper's skis fully in view in at least 6"

@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 
 THUMB_WIDTH = 480
 
@@ -148,14 +149,14 @@ def read_thumbnails(path: str | Path, progress: Progress = _no_progress) -> tupl
 def median_background(frames: list[np.ndarray], most: int = 49) -> np.ndarray:
     """Per-pixel median of up to ``most`` frames spread evenly over the list."""
     idx = np.unique(np.linspace(0, len(frames) - 1, min(most, len(frames))).round().astype(int))
-    return np.median(np.stack([frames[i] for i in idx]), axis=0).astype(np.uint8)
+    return median(np.stack([frames[i] for i in idx]), axis=0).astype(np.uint8)
 
 
 def noise_threshold(frames: list[np.ndarray], background: np.ndarray) -> float:
     """Foreground threshold [grey levels]: 6 robust sigmas of frame - background, at least 14."""
     idx = np.linspace(0, len(frames) - 1, min(8, len(frames))).round().astype(int)
     d = np.concatenate([cv2.absdiff(frames[i], background).ravel()[::7] for i in idx]).astype(float)
-    sigma = 1.4826 * float(np.median(d)) / 0.6745 if d.size else 0.0  # |N(0,s)| has median 0.6745 s
+    sigma = 1.4826 * float(median(d)) / 0.6745 if d.size else 0.0  # |N(0,s)| has median 0.6745 s
     return max(14.0, 6.0 * sigma)
 
 

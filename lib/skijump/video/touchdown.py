@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import median
 
 
 @dataclass
@@ -31,7 +32,7 @@ def _noise(y: np.ndarray) -> float:
     if y.size < 5:
         return float(np.std(y)) if y.size else 0.0
     d2 = np.diff(y, 2)
-    return 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / math.sqrt(6.0)
+    return 1.4826 * float(median(np.abs(d2 - median(d2)))) / math.sqrt(6.0)
 
 
 def _hinge_design(f: np.ndarray, ft: float, order: int) -> np.ndarray:

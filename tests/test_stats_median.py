@@ -1,0 +1,44 @@
+"""core.stats.median: numpy.median's answer (the independent reference) without importing numpy.ma."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sportfusion.core.stats import median
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int64, np.uint8, bool])
+def test_median_equals_numpy(dtype) -> None:
+    rng = np.random.default_rng(3)
+    for shape in [(1,), (2,), (5,), (6,), (7, 4), (8, 3), (3, 5, 2)]:
+        for trial in range(12):
+            a = rng.normal(size=shape) * 50 + 100
+            if trial % 3 == 0 and np.dtype(dtype).kind == "f":
+                a.flat[rng.integers(a.size)] = np.nan  # NaN anywhere: NaN, as numpy
+            if trial % 4 == 0:
+                a = np.round(a / 20)  # ties
+            a = a > 100 if dtype is bool else a.astype(dtype)
+            for axis in [None, *range(-a.ndim, a.ndim)]:
+                want, got = np.median(a, axis=axis), median(a, axis=axis)
+                assert type(got) is type(want)
+                assert np.asarray(got).dtype == np.asarray(want).dtype
+                np.testing.assert_array_equal(got, want)
+
+
+def test_median_of_a_list_and_infinities() -> None:
+    assert median([3, 1, 2]) == 2.0
+    assert median([1.0, np.inf, 2.0, -np.inf]) == 1.5
+    assert np.isnan(median([1.0, np.nan]))
+
+
+def test_median_does_not_import_numpy_ma() -> None:
+    code = (
+        "import sys, numpy as np; from sportfusion.core.stats import median; "
+        "median(np.arange(9.0)); median(np.ones((4, 3)), axis=0); print('numpy.ma' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
