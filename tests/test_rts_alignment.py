@@ -34,6 +34,34 @@ def test_body_to_start_against_scipy_rotations():
     np.testing.assert_allclose(np.einsum("kij,kil->kjl", c, c), np.broadcast_to(np.eye(3), c.shape), atol=1e-10)
 
 
+def test_body_to_start_in_c_matches_numpy():
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump.alignment import _body_to_start_numpy
+
+    mod = _ski_native.native()
+    if mod is None:
+        pytest.skip("the C extension sportfusion.skijump._ski_c is not built")
+    rng = np.random.default_rng(11)
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.005, 0.015, 999)])
+    gyr = rng.normal(0.0, 2.0, (t.size, 3))
+    gyr[5] = 0.0  # a zero rate: the small-angle branch
+    bias = np.array([0.02, -0.01, 0.03])
+    gyr[6] = bias
+    for n in (1, 2, 3, 64, t.size):
+        for last in (False, True):
+            got = body_to_start(t[:n], gyr[:n], bias, last_only=last)
+            want = _body_to_start_numpy(t[:n], gyr[:n], bias, last_only=last)
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    # a strided gyro (the IMU table's first three columns) is read as given
+    u = np.column_stack([gyr, gyr * 2.0])
+    np.testing.assert_allclose(body_to_start(t, u[:, 0:3], bias), _body_to_start_numpy(t, gyr, bias), atol=1e-12)
+    with pytest.raises(ValueError, match="out must hold"):
+        mod.body_to_start(t, np.ascontiguousarray(gyr), bias, np.empty((2, 3, 3)))
+    with pytest.raises(ValueError, match="gyr"):
+        mod.body_to_start(t, np.ascontiguousarray(gyr[:-1]), bias, np.empty((1, 3, 3)))
+
+
 @pytest.fixture(scope="module")
 def jump():
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump

@@ -287,6 +287,44 @@ def test_c_forward_run_without_filtered_covariances() -> None:
         np.testing.assert_array_equal(kept[3][k], full[3][k])
 
 
+@pytest.mark.parametrize(
+    "engine",
+    ["numba", pytest.param("c", marks=pytest.mark.skipif(not _native_built(), reason="C extension not built"))],
+)
+def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
+    """keep_cov=False (what rts-smooth runs: only the std rows are written): the same states, std rows and
+    residuals over two segments, no covariances kept (cov/var refuse), and the C backward pass writes none."""
+    if engine == "numba":
+        pytest.importorskip("numba")
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    tab = tab.slice(0, 900)
+    t = schema.floats(tab, "t")
+    tab = tab.set_column(0, "t", pa.array(np.where(t > 4.0, t + 5.0, t)))  # logging paused: two segments
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(passes=1)
+    inp, _ = RI.session_inputs(tab, meta, hill, cfg, [13.0], [13.5])
+    a = R.smooth_inputs(inp, hill, cfg, engine=engine, keep_cov=False)
+    b = R.smooth_inputs(inp, hill, cfg, engine=engine)
+    assert len(a.passes) == 2
+    np.testing.assert_array_equal(a.x_smooth, b.x_smooth)
+    np.testing.assert_array_equal(a.std, b.std)
+    for k in b.residuals:
+        np.testing.assert_array_equal(a.residuals[k], b.residuals[k], err_msg=k)
+    with pytest.raises(RuntimeError, match="not kept"):
+        a.cov(np.arange(3))
+    with pytest.raises(RuntimeError, match="not kept"):
+        a.var()
+    assert b.var().shape == (inp.t.size, 22)
+    if engine == "c":
+        from sportfusion.skijump import _ski_native
+
+        x0, P0 = R.initial_state(inp, cfg)
+        assert R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False)[2].shape == (0, 253)
+
+
 @pytest.mark.slow
 def test_relinearisation_passes_recover_a_bad_start():
     """Seed 0 draws a gyro bias of 0.11 rad/s: one EKF pass locks onto a wrong heading, the passes do not."""

@@ -24,7 +24,7 @@
 #define N 22
 #define NP 253
 #define NSTD 28
-#define NPAR 22
+#define NPAR 23
 #define NRES 16
 
 #if defined(__GNUC__)
@@ -421,6 +421,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     double rzu = par[20];
     /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
     int keep = smooth || par[21] != 0.0;
+    int write_ps = par[22] != 0.0; /* the smoothed covariances written back over the filtered ones */
     double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
     double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
     double x[N], xn[N], xp[N], h[N];
@@ -528,7 +529,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         }
     }
     if (!smooth) return -1;
-    /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one */
+    /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one (where write_ps) */
     double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], U[N][NW];
     double dx[N];
     memcpy(x_s + N * (n - 1), x_filt + N * (n - 1), sizeof(double) * N);
@@ -616,7 +617,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 Ps[i][j] = v;
                 Ps[j][i] = v;
             }
-        pack(Ps, Pbuf + NP * k);
+        if (write_ps) pack(Ps, Pbuf + NP * k);
         std_row(xs, Ps, mno, std + NSTD * k);
     }
     return -1;
@@ -628,7 +629,7 @@ static const char doc_ekf_rts[] =
     "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
-    "written).  Outputs are written in place; fail is -1 or the step at which a\n"
+    "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted).  Outputs are written in place; fail is -1 or the step at which a\n"
     "covariance stopped being positive definite, phase 0 update, 1 prediction, 2 backward pass.";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
@@ -682,8 +683,66 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     return res;
 }
 
+static const char doc_body_to_start[] =
+    "body_to_start(t, gyr, bias, out) -> None\n\n"
+    "alignment.body_to_start's rotation matrices C_k (body frame of step k -> that of step 0) as one sequential\n"
+    "product C_k+1 = C_k exp([w_k dt x]) (Rodrigues, w_k = gyr_k - bias held over the step): t (n), gyr (n, 3),\n"
+    "bias (3); out (n, 3, 3) receives every C_k, or (1, 3, 3) only the last.";
+
+static PyObject *py_body_to_start(PyObject *self, PyObject *args) {
+    PyObject *o[4];
+    if (!PyArg_ParseTuple(args, "OOOO", &o[0], &o[1], &o[2], &o[3])) return NULL;
+    Buf b[4];
+    if (get_buf(o[0], &b[0], -1, 0, "t") < 0) {
+        release(b, 1);
+        return NULL;
+    }
+    Py_ssize_t n = b[0].view.len / 8;
+    static const char *names[4] = {"t", "gyr", "bias", "out"};
+    Py_ssize_t counts[4] = {n, 3 * n, 3, -9};
+    int k;
+    for (k = 1; k < 4; k++)
+        if (get_buf(o[k], &b[k], counts[k], k == 3, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 4) {
+        Py_ssize_t nout = b[3].view.len / 72;
+        if (n < 1 || b[3].view.len % 72 || (nout != n && nout != 1)) {
+            PyErr_Format(PyExc_ValueError, "body_to_start: out must hold %zd or 1 3x3 matrices (n >= 1)", n);
+        } else {
+            const double *t = b[0].view.buf, *g = b[1].view.buf, *bias = b[2].view.buf;
+            double *out = b[3].view.buf, C[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+            if (nout == n) memcpy(out, C, sizeof(C));
+            for (Py_ssize_t i = 0; i + 1 < n; i++) {
+                double dt = t[i + 1] - t[i], p[3], a[3], K[3][3], S[3][3], R[3][3];
+                for (int j = 0; j < 3; j++) p[j] = (g[3 * i + j] - bias[j]) * dt;
+                double ang = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+                double d = ang < 1e-12 ? 1.0 : ang, sn = sin(ang), cc = 1.0 - cos(ang);
+                for (int j = 0; j < 3; j++) a[j] = p[j] / d;
+                K[0][0] = 0.0; K[0][1] = -a[2]; K[0][2] = a[1];
+                K[1][0] = a[2]; K[1][1] = 0.0; K[1][2] = -a[0];
+                K[2][0] = -a[1]; K[2][1] = a[0]; K[2][2] = 0.0;
+                for (int r = 0; r < 3; r++)
+                    for (int c = 0; c < 3; c++) {
+                        double kk = K[r][0] * K[0][c] + K[r][1] * K[1][c] + K[r][2] * K[2][c];
+                        S[r][c] = (r == c ? 1.0 : 0.0) + sn * K[r][c] + cc * kk;
+                    }
+                for (int r = 0; r < 3; r++)
+                    for (int c = 0; c < 3; c++) R[r][c] = C[r][0] * S[0][c] + C[r][1] * S[1][c] + C[r][2] * S[2][c];
+                memcpy(C, R, sizeof(C));
+                if (nout == n) memcpy(out + 9 * (i + 1), C, sizeof(C));
+            }
+            if (nout == 1) memcpy(out, C, sizeof(C));
+            Py_INCREF(Py_None);
+            res = Py_None;
+        }
+    }
+    release(b, k < 4 ? k + 1 : 4);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"ekf_rts", py_ekf_rts, METH_VARARGS, doc_ekf_rts},
+    {"body_to_start", py_body_to_start, METH_VARARGS, doc_body_to_start},
     {NULL, NULL, 0, NULL},
 };
 

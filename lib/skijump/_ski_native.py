@@ -65,13 +65,15 @@ def _f64(a: object) -> np.ndarray:
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
-    filtered_cov=True,
+    filtered_cov=True, smoothed_cov=True,
 ):  # fmt: skip  # noqa: ANN001, ANN201
     """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
 
     ``filtered_cov=False`` with ``smooth=False``: the filtered covariances are not kept (the returned
     packed covariances are an empty (0, 253) array): a forward run for its states alone then writes
-    2 KB less per step.  Raises RuntimeError when the extension is not built (call :func:`native` first).
+    2 KB less per step.  ``smoothed_cov=False`` with ``smooth``: the smoothed covariances are not written
+    back (only the ``std`` rows are wanted); the packed covariances returned are then empty too.  Raises
+    RuntimeError when the extension is not built (call :func:`native` first).
     """
     mod = native()
     if mod is None:
@@ -88,7 +90,7 @@ def ski_ekf_rts(
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
         + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
-        + [rzu, float(keep)],
+        + [rzu, float(keep), float(bool(smoothed_cov))],
         dtype=np.float64,
     )
     fail, phase = mod.ekf_rts(
@@ -105,7 +107,7 @@ def ski_ekf_rts(
         resid,
         std if smooth else np.empty((n, NSTD)),
     )
-    if not keep:
+    if not keep or (smooth and not smoothed_cov):
         pbuf = np.empty((0, NP))
     if fail >= 0:
         return x_filt, x_filt, pbuf, resid, fail, phase, np.empty((0, NSTD))

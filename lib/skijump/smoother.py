@@ -269,11 +269,13 @@ def _run_fast(  # noqa: ANN202
     x0: np.ndarray,
     P0: np.ndarray,
     smooth: bool = True,
+    keep_cov: bool = True,
 ):
     """One run of the compiled loop over ``seg``: ``(x_filt, x_smooth, P_packed, residuals, std)``.
 
     Without ``smooth`` (a forward run for its states), the C engine keeps no filtered covariances: its
-    ``P_packed`` is then empty (numba's holds them).
+    ``P_packed`` is then empty (numba's holds them); so too without ``keep_cov`` (only ``std`` wanted: the C
+    backward pass does not write the smoothed covariances back).
     """
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
@@ -314,7 +316,7 @@ def _run_fast(  # noqa: ANN202
             bool(cfg.use_gnss_vel),
             bool(cfg.use_mag),
             bool(smooth),
-            **({} if smooth or fast.__name__.endswith("smoother_fast") else {"filtered_cov": False}),
+            **({} if fast.__name__.endswith("smoother_fast") else _c_options(smooth, keep_cov)),
         )
     except np.linalg.LinAlgError:
         raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
@@ -327,6 +329,11 @@ def _run_fast(  # noqa: ANN202
         res[name] = resid[:, i : i + w]
         i += w
     return xf, xs, Pp, res, std
+
+
+def _c_options(smooth: bool, keep_cov: bool) -> dict[str, bool]:
+    """The C engine's options that skip covariances nobody reads."""
+    return {"smoothed_cov": keep_cov} if smooth else {"filtered_cov": False}
 
 
 def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
@@ -368,11 +375,16 @@ def smooth_inputs(
     cfg: SmootherConfig,
     progress: Callable[[int], object] | None = None,
     engine: str = "auto",
+    keep_cov: bool = True,
 ) -> Smoothed:
     """Run the EKF + RTS smoother over the prepared inputs (raises InputError when it diverges).
 
     Parameters
     ----------
+    keep_cov : bool
+        Keep the smoothed covariances for ``Smoothed.cov`` / ``Smoothed.var`` (2 KB per step).  False where
+        the compiled engine's ``std`` rows are all that is wanted: ``cov``/``var`` then raise RuntimeError
+        (the numpy engine, which has no ``std`` rows, keeps them regardless).
     engine : {"auto", "c", "numba", "numpy"}
         ``numpy``: :func:`sportfusion.estimators.kalman.ekf_rts` with the model callables (the
         reference); ``numba``: the compiled loop of
@@ -427,7 +439,7 @@ def smooth_inputs(
                 propagate, measure = _model_callables(sub, cfg, hill)
                 r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
                 return r.x_filt, r.x_smooth if smooth else r.x_filt, r.P_smooth, r.residuals, None
-            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth)
+            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth, keep_cov)
             if progress is not None:
                 for k in range(2 * sub.t.size - 1):
                     progress(k)
@@ -488,17 +500,22 @@ def smooth_inputs(
             raise InputError(f"the smoother failed: {exc}") from None
         xfs.append(xf)
         xss.append(xs)
-        covs.append(P)
+        covs.append(P if keep_cov or sd is None else None)  # 2 KB per step: only kept where asked for
         stds.append(sd)
         resids.append(res)
         npass.append(it + 1)
+
+    def kept() -> list[np.ndarray]:
+        if any(P is None for P in covs):
+            raise RuntimeError("the smoothed covariances were not kept (smooth_inputs(keep_cov=False))")
+        return covs
 
     def cov(idx: np.ndarray, r0: int = 0, r1: int | None = None) -> np.ndarray:
         idx = np.asarray(idx)
         r1 = inp.t.size if r1 is None else min(r1, inp.t.size)
         out = np.empty((r1 - r0, idx.size, idx.size))  # filled segment by segment: no list + concatenate
         i = 0
-        for P in covs:
+        for P in kept():
             a, b = max(r0, i), min(r1, i + P.shape[0])  # the rows of this segment inside [r0, r1)
             if a < b:
                 Ps = P[a - i : b - i]
@@ -512,7 +529,7 @@ def smooth_inputs(
         diag = np.flatnonzero(iu[0] == iu[1])  # packed (upper, row-major) positions of the diagonal
         out = np.empty((inp.t.size, mdl.N))
         i = 0
-        for P in covs:
+        for P in kept():
             out[i : i + P.shape[0]] = np.diagonal(P, axis1=1, axis2=2) if fast is None else P[:, diag]
             i += P.shape[0]
         return out
@@ -575,14 +592,14 @@ def rts_smooth_table(
         )
     if on_start is not None:
         on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
-    res = smooth_inputs(inp, hill, cfg, progress, engine)
+    res = smooth_inputs(inp, hill, cfg, progress, engine, keep_cov=False)
     if cfg.use_mag:
         # a disturbance that keeps the field's strength shows in the innovations: skip those samples, run again
         bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
         if bad.any():
             raw = inp.mag.copy()
             inp.mag[bad] = np.nan
-            res = smooth_inputs(inp, hill, cfg, progress, engine)
+            res = smooth_inputs(inp, hill, cfg, progress, engine, keep_cov=False)
             # the flagged stretch may outlast the disturbance (the filter's heading was off for a while): give back
             # the samples that agree with the smoothed attitude, then run once more
             idx = np.flatnonzero(bad)
@@ -591,7 +608,7 @@ def rts_smooth_table(
             if agree.any():
                 bad[idx[agree]] = False
                 inp.mag[idx[agree]] = raw[idx[agree]]
-                res = smooth_inputs(inp, hill, cfg, progress, engine)
+                res = smooth_inputs(inp, hill, cfg, progress, engine, keep_cov=False)
             inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     t_rows = schema.floats(table, "t")
     cols = _estimate_columns(res.x_smooth, res.cov, inp, var=res.var, std=res.std)
