@@ -65,27 +65,34 @@ def _f64(a: object) -> np.ndarray:
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
-    filtered_cov=True, smoothed_cov=True,
+    filtered_cov=True, smoothed_cov=True, out=None,
 ):  # fmt: skip  # noqa: ANN001, ANN201
     """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
 
     ``filtered_cov=False`` with ``smooth=False``: the filtered covariances are not kept (the returned
     packed covariances are an empty (0, 253) array): a forward run for its states alone then writes
     2 KB less per step.  ``smoothed_cov=False`` with ``smooth``: the smoothed covariances are not written
-    back (only the ``std`` rows are wanted); the packed covariances returned are then empty too.  Raises
-    RuntimeError when the extension is not built (call :func:`native` first).
+    back (only the ``std`` rows are wanted); the packed covariances returned are then empty too.
+    ``out`` (with ``smooth``): ``(x_filt, x_smooth, resid, std)`` arrays of shapes (n, 22), (n, 22),
+    (n, NRES), (n, NSTD) to write into (C-contiguous float64, e.g. a segment's rows of the session's arrays:
+    no concatenation afterwards); ``resid`` is set to NaN first.  Raises RuntimeError when the extension is
+    not built (call :func:`native` first).
     """
     mod = native()
     if mod is None:
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
     keep = bool(smooth) or bool(filtered_cov)
-    x_filt = np.empty((n, N))
     x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
-    x_s = np.empty((n, N)) if smooth else x_filt
     pbuf = np.empty((n, NP) if keep else (1, NP))
-    resid = np.full((n, NRES), np.nan)
-    std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
+    if out is not None and smooth:
+        x_filt, x_s, resid, std = out
+        resid.fill(np.nan)
+    else:
+        x_filt = np.empty((n, N))
+        x_s = np.empty((n, N)) if smooth else x_filt
+        resid = np.full((n, NRES), np.nan)
+        std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
     rpos, rvel = _f64(rpos), _f64(rvel)
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]

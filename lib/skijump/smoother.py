@@ -270,12 +270,14 @@ def _run_fast(  # noqa: ANN202
     P0: np.ndarray,
     smooth: bool = True,
     keep_cov: bool = True,
+    out: tuple[np.ndarray, ...] | None = None,
 ):
     """One run of the compiled loop over ``seg``: ``(x_filt, x_smooth, P_packed, residuals, std)``.
 
     Without ``smooth`` (a forward run for its states), the C engine keeps no filtered covariances: its
     ``P_packed`` is then empty (numba's holds them); so too without ``keep_cov`` (only ``std`` wanted: the C
-    backward pass does not write the smoothed covariances back).
+    backward pass does not write the smoothed covariances back).  ``out``: the C engine's arrays to write
+    the states, residuals and std rows into (:func:`sportfusion.skijump._ski_native.ski_ekf_rts`).
     """
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
@@ -316,7 +318,7 @@ def _run_fast(  # noqa: ANN202
             bool(cfg.use_gnss_vel),
             bool(cfg.use_mag),
             bool(smooth),
-            **({} if fast.__name__.endswith("smoother_fast") else _c_options(smooth, keep_cov)),
+            **({} if fast.__name__.endswith("smoother_fast") else _c_options(smooth, keep_cov, out)),
         )
     except np.linalg.LinAlgError:
         raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
@@ -331,9 +333,9 @@ def _run_fast(  # noqa: ANN202
     return xf, xs, Pp, res, std
 
 
-def _c_options(smooth: bool, keep_cov: bool) -> dict[str, bool]:
-    """The C engine's options that skip covariances nobody reads."""
-    return {"smoothed_cov": keep_cov} if smooth else {"filtered_cov": False}
+def _c_options(smooth: bool, keep_cov: bool, out: tuple[np.ndarray, ...] | None) -> dict[str, Any]:
+    """The C engine's options: covariances nobody reads skipped, the arrays to write into."""
+    return {"smoothed_cov": keep_cov, "out": out} if smooth else {"filtered_cov": False}
 
 
 def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
@@ -416,6 +418,11 @@ def smooth_inputs(
     if engine == "c" and (fast is None or fast.__name__.endswith("smoother_fast")):
         raise InputError("engine c requested but the C extension is not built; expected pip install -e . with gcc")
     xfs, xss, covs, resids, npass, lat, stds = [], [], [], [], [], [], []
+    whole = None  # the C engine writes each segment's final run into its rows of these (no concatenation)
+    if fast is not None and not fast.__name__.endswith("smoother_fast"):
+        n_all = inp.t.size
+        whole = (np.empty((n_all, mdl.N)), np.empty((n_all, mdl.N)), np.empty((n_all, fast.NRES)))
+        whole += (np.empty((n_all, fast.NSTD)),)
     for a, b in segments(inp.t, cfg.max_gap):
         lat.append(None)
         seg = _slice(inp, a, b)
@@ -434,12 +441,21 @@ def smooth_inputs(
         nw = int(np.searchsorted(seg.t, t_end, side="right"))
         nw = max(min(nw, seg.t.size), 2)
 
-        def run(sub: SkiJumpInputs, x0: np.ndarray, P0: np.ndarray = P0, smooth: bool = True):  # noqa: ANN202
+        seg_rows = tuple(w[a:b] for w in whole) if whole is not None else None
+
+        def run(  # noqa: ANN202
+            sub: SkiJumpInputs,
+            x0: np.ndarray,
+            P0: np.ndarray = P0,
+            smooth: bool = True,
+            seg: SkiJumpInputs = seg,
+            seg_rows: tuple[np.ndarray, ...] | None = seg_rows,
+        ):
             if fast is None:
                 propagate, measure = _model_callables(sub, cfg, hill)
                 r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
                 return r.x_filt, r.x_smooth if smooth else r.x_filt, r.P_smooth, r.residuals, None
-            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth, keep_cov)
+            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth, keep_cov, seg_rows if smooth and sub is seg else None)
             if progress is not None:
                 for k in range(2 * sub.t.size - 1):
                     progress(k)
@@ -534,6 +550,12 @@ def smooth_inputs(
             i += P.shape[0]
         return out
 
+    if whole is not None:  # every segment's last run wrote its rows (C engine)
+        res, i = {}, 0
+        for name, w in fast.RESIDUALS:
+            res[name] = whole[2][:, i : i + w]
+            i += w
+        return Smoothed(whole[0], whole[1], cov, var, res, npass, lat, whole[3])
     if len(xfs) == 1:  # one segment: its arrays as they are (a copy of 60k steps costs ~10 ms per 10 MB)
         std = stds[0]
         return Smoothed(xfs[0], xss[0], cov, var, resids[0], npass, lat, std)
