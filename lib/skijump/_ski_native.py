@@ -65,7 +65,7 @@ def _f64(a: object) -> np.ndarray:
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
-    filtered_cov=True, smoothed_cov=True, out=None,
+    filtered_cov=True, smoothed_cov=True, out=None, work=None,
 ):  # fmt: skip  # noqa: ANN001, ANN201
     """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
 
@@ -75,16 +75,22 @@ def ski_ekf_rts(
     back (only the ``std`` rows are wanted); the packed covariances returned are then empty too.
     ``out`` (with ``smooth``): ``(x_filt, x_smooth, resid, std)`` arrays of shapes (n, 22), (n, 22),
     (n, NRES), (n, NSTD) to write into (C-contiguous float64, e.g. a segment's rows of the session's arrays:
-    no concatenation afterwards); ``resid`` is set to NaN first.  Raises RuntimeError when the extension is
-    not built (call :func:`native` first).
+    no concatenation afterwards); ``resid`` is set to NaN first.  ``work``: ``(x_pred, P_packed)`` scratch
+    arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would have their pages
+    zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
+    returned (``smoothed_cov=False``).  Raises RuntimeError when the extension is not built (call
+    :func:`native` first).
     """
     mod = native()
     if mod is None:
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
     keep = bool(smooth) or bool(filtered_cov)
-    x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
-    pbuf = np.empty((n, NP) if keep else (1, NP))
+    if work is not None and smooth and not smoothed_cov:
+        x_pred, pbuf = work[0][:n], work[1][:n]
+    else:
+        x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
+        pbuf = np.empty((n, NP) if keep else (1, NP))
     if out is not None and smooth:
         x_filt, x_s, resid, std = out
         resid.fill(np.nan)

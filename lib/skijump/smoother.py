@@ -271,13 +271,15 @@ def _run_fast(  # noqa: ANN202
     smooth: bool = True,
     keep_cov: bool = True,
     out: tuple[np.ndarray, ...] | None = None,
+    work: tuple[np.ndarray, np.ndarray] | None = None,
 ):
     """One run of the compiled loop over ``seg``: ``(x_filt, x_smooth, P_packed, residuals, std)``.
 
     Without ``smooth`` (a forward run for its states), the C engine keeps no filtered covariances: its
     ``P_packed`` is then empty (numba's holds them); so too without ``keep_cov`` (only ``std`` wanted: the C
-    backward pass does not write the smoothed covariances back).  ``out``: the C engine's arrays to write
-    the states, residuals and std rows into (:func:`sportfusion.skijump._ski_native.ski_ekf_rts`).
+    backward pass does not write the smoothed covariances back).  ``out``, ``work``: the C engine's arrays to
+    write the states, residuals and std rows into and its reused scratch
+    (:func:`sportfusion.skijump._ski_native.ski_ekf_rts`).
     """
     use_hill = cfg.hill_constraints and hill is not None
     ir, la = profile_tables(hill) if use_hill else (None, None)
@@ -318,7 +320,7 @@ def _run_fast(  # noqa: ANN202
             bool(cfg.use_gnss_vel),
             bool(cfg.use_mag),
             bool(smooth),
-            **({} if fast.__name__.endswith("smoother_fast") else _c_options(smooth, keep_cov, out)),
+            **({} if fast.__name__.endswith("smoother_fast") else _c_options(smooth, keep_cov, out, work)),
         )
     except np.linalg.LinAlgError:
         raise CovarianceError("a predicted covariance is not positive definite (backward pass)") from None
@@ -333,9 +335,11 @@ def _run_fast(  # noqa: ANN202
     return xf, xs, Pp, res, std
 
 
-def _c_options(smooth: bool, keep_cov: bool, out: tuple[np.ndarray, ...] | None) -> dict[str, Any]:
-    """The C engine's options: covariances nobody reads skipped, the arrays to write into."""
-    return {"smoothed_cov": keep_cov, "out": out} if smooth else {"filtered_cov": False}
+def _c_options(
+    smooth: bool, keep_cov: bool, out: tuple[np.ndarray, ...] | None, work: tuple[np.ndarray, np.ndarray] | None
+) -> dict[str, Any]:
+    """The C engine's options: covariances nobody reads skipped, the arrays to write into, the scratch."""
+    return {"smoothed_cov": keep_cov, "out": out, "work": work} if smooth else {"filtered_cov": False}
 
 
 def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
@@ -418,11 +422,14 @@ def smooth_inputs(
     if engine == "c" and (fast is None or fast.__name__.endswith("smoother_fast")):
         raise InputError("engine c requested but the C extension is not built; expected pip install -e . with gcc")
     xfs, xss, covs, resids, npass, lat, stds = [], [], [], [], [], [], []
-    whole = None  # the C engine writes each segment's final run into its rows of these (no concatenation)
+    whole = work = None  # the C engine writes each segment's final run into its rows of these (no concatenation)
     if fast is not None and not fast.__name__.endswith("smoother_fast"):
         n_all = inp.t.size
         whole = (np.empty((n_all, mdl.N)), np.empty((n_all, mdl.N)), np.empty((n_all, fast.NRES)))
         whole += (np.empty((n_all, fast.NSTD)),)
+        if not keep_cov:  # the predictions and covariances of the longest segment, reused by every run
+            n_max = max(b - a for a, b in segments(inp.t, cfg.max_gap))
+            work = (np.empty((n_max, mdl.N)), np.empty((n_max, fast.NP)))
     for a, b in segments(inp.t, cfg.max_gap):
         lat.append(None)
         seg = _slice(inp, a, b)
@@ -455,7 +462,8 @@ def smooth_inputs(
                 propagate, measure = _model_callables(sub, cfg, hill)
                 r = ekf_rts(x0, P0, sub.t.size, propagate, measure, progress=progress, t=sub.t)
                 return r.x_filt, r.x_smooth if smooth else r.x_filt, r.P_smooth, r.residuals, None
-            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth, keep_cov, seg_rows if smooth and sub is seg else None)
+            rows = seg_rows if smooth and sub is seg else None
+            out = _run_fast(fast, sub, cfg, hill, x0, P0, smooth, keep_cov, rows, work)
             if progress is not None:
                 for k in range(2 * sub.t.size - 1):
                     progress(k)
