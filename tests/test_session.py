@@ -148,3 +148,14 @@ def test_to_arrow_float_columns_nulls_views_and_byte_order() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_numeric_array_integers_with_nulls() -> None:
+    from sportfusion.core import schema
+
+    hid = np.array([3, -1, 7, -1], dtype=np.int64)
+    arr = schema.numeric_array(hid.astype(np.int32), hid < 0)
+    arr.validate(full=True)
+    assert arr.type == pa.int32() and arr.to_pylist() == [3, None, 7, None]
+    assert schema.numeric_array(np.arange(3)[::-1]).to_pylist() == [2, 1, 0]
+    assert schema.numeric_array(np.array([True, False])).to_pylist() == [True, False]  # bool: pyarrow's path

@@ -42,3 +42,22 @@ def test_median_does_not_import_numpy_ma() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_unique_equals_numpy() -> None:
+    from sportfusion.core.stats import unique
+
+    rng = np.random.default_rng(5)
+    for a in (
+        rng.integers(0, 7, 50),
+        rng.integers(0, 7, (4, 6)),
+        np.round(rng.normal(size=40), 1),
+        np.array([2.0, np.nan, 1.0, np.nan, 2.0]),
+        np.array([np.nan, np.nan]),
+        np.array([], float),
+        np.array([3]),
+    ):
+        want, got = np.unique(a), unique(a)
+        assert got.dtype == want.dtype
+        np.testing.assert_array_equal(got, want)
+    assert unique([3, 1, 3]).tolist() == [1, 3]

@@ -28,6 +28,7 @@ from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import unique
 
 AXES = {"x": 0, "y": 1, "z": 2}
 DEFAULT_GRAVITY = 9.81  # m/s^2
@@ -138,7 +139,7 @@ def validate(table: pa.Table, meta: dict[str, Any]) -> HoldMap:
             f"hold map row {i} (route {route[i]!r}, hold {hold[i]}) has a missing or NaN position; "
             "expected finite x, y, z [m]"
         )
-    for h in np.unique(hold):
+    for h in unique(hold):
         p = pos[hold == h]
         if np.abs(p - p[0]).max() > 1e-3:
             raise InputError(f"hold {h} has two different positions in the hold map; expected one position per hold")

@@ -93,6 +93,7 @@ import numpy as np
 
 from sportfusion.climbing._native import native
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import unique
 from sportfusion.estimators.particles import (
     backward_draws,
     backward_simulation,
@@ -407,7 +408,7 @@ def run_particle_filter(
     late = np.zeros(n, dtype=bool) if descent_time is None else t >= descent_time
     # labels are kept as codes 0, 1, ... of the sorted hold numbers (code 0: elsewhere, -1): one bincount
     # then sums the weights of every cluster of many steps at once
-    table = np.unique(np.concatenate(([ELSEWHERE], r_ids, w_ids, s_ids)).astype(np.int64))
+    table = unique(np.concatenate(([ELSEWHERE], r_ids, w_ids, s_ids)).astype(np.int64))
     r_code, w_code = np.searchsorted(table, r_ids), np.searchsorted(table, w_ids)
     nowhere = int(np.searchsorted(table, ELSEWHERE))
 
@@ -418,7 +419,7 @@ def run_particle_filter(
     lw = np.zeros(m)  # log weights (equal)
     # start hypotheses: the particles of each start hold form a stratum that is resampled on its own and
     # keeps its total weight (the hypothesis's evidence) until the strata's tracks merge
-    split = p.separate_starts and np.unique(s_ids).size > 1
+    split = p.separate_starts and unique(s_ids).size > 1
     strata: list = [np.flatnonzero(which == h) for h in range(s_ids.size)] if split else [slice(None)]
     counts = np.array([m // s_ids.size + (h < m % s_ids.size) for h in range(s_ids.size)]) if split else np.array([m])
     grip_end = grip & ~np.append(grip[1:], False)  # the last sample of every detected grip

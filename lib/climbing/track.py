@@ -209,7 +209,7 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     idx = np.flatnonzero(rows)
     hid[idx[on]] = lab[on]
     hmask[idx[on]] = False
-    cols["hold_id"] = pa.array(hid, type=pa.int32(), mask=hmask)
+    cols["hold_id"] = schema.numeric_array(hid.astype(np.int32), hmask)
     full = np.full(n, np.nan)
     full[rows] = prob
     cols["cluster_prob"] = schema.to_arrow("cluster_prob", full)

@@ -15,6 +15,7 @@ import pyarrow as pa
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import unique
 
 
 def time_step_problem(t: np.ndarray) -> str | None:
@@ -274,7 +275,7 @@ def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
         lost = sum(r.no_time for r in report.order.values())
         why = f" ({lost} sample(s) without a finite time)" if lost else ""
         raise InputError(f"no samples found in the input(s){why}; expected samples with times")
-    t_all = np.unique(np.concatenate([s.t for s in clean]))
+    t_all = unique(np.concatenate([s.t for s in clean]))
     n = t_all.size
     names: list[str] = []
     for s in clean:

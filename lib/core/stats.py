@@ -42,3 +42,20 @@ def median(a: object, axis: int | None = None) -> np.ndarray | np.float64:
     if x.dtype.kind == "f":
         out = np.where(np.isnan(np.take(part, n - 1, axis=axis)), np.nan, out)
     return out[()] if np.ndim(out) == 0 else out
+
+
+def unique(a: object) -> np.ndarray:
+    """The sorted distinct values of ``a`` (flattened), as :func:`numpy.unique` without options (one NaN
+    kept where there are NaNs), without importing :mod:`numpy.ma` (``numpy.unique`` does on its first call).
+    """
+    x = np.sort(np.asarray(a).ravel())
+    if x.size == 0:
+        return x
+    keep = np.empty(x.size, dtype=bool)
+    keep[0] = True
+    np.not_equal(x[1:], x[:-1], out=keep[1:])
+    if x.dtype.kind in "fc" and np.isnan(x[-1]):  # NaNs sort last and never equal each other: keep the first
+        first_nan = int(np.argmax(np.isnan(x)))
+        keep[first_nan + 1 :] = False
+        keep[first_nan] = True
+    return x[keep]

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.stats import median
+from sportfusion.core.stats import median, unique
 
 
 # --------------------------------------------------------------------------- relative anchors (eqs 2-6)
@@ -261,7 +261,7 @@ def _argmin_mutual(dist: np.ndarray) -> np.ndarray:
     """Eq 9 for each row; where two or more rows claim one gate, only the row nearest to that gate keeps it."""
     k = np.argmin(dist, axis=1)
     out = k.copy()
-    for g in np.unique(k):
+    for g in unique(k):
         rows = np.flatnonzero(k == g)
         if rows.size > 1:
             best = rows[np.argmin(dist[rows, g])]

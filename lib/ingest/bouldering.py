@@ -52,6 +52,7 @@ from sportfusion.climbing.holds import holds_table
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
+from sportfusion.core.stats import unique
 from sportfusion.ingest import Options, Recording
 from sportfusion.ingest._text import decode, floats, read_delimited
 
@@ -232,7 +233,7 @@ def read_hold_map(
     routes = [r for r, _, _ in rows]
     local = np.array([i for _, i, _ in rows], dtype=np.int64)
     pos = np.array([p for _, _, p in rows])
-    consistent = all(np.abs(pos[local == i] - pos[local == i][0]).max() <= 1e-3 for i in np.unique(local))
+    consistent = all(np.abs(pos[local == i] - pos[local == i][0]).max() <= 1e-3 for i in unique(local))
     if consistent:
         hold = local.copy()
     else:

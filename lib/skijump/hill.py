@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import unique
 
 __all__ = ["HILL_TYPES", "Certificate", "HillProfile", "Segment", "PARAMETERS"]
 
@@ -619,7 +620,7 @@ class HillProfile:
         for seg in self._part(part):
             k = max(2, int(math.ceil((seg.x1 - seg.x0) / step)) + 1)
             xs.append(np.linspace(seg.x0, seg.x1, k))
-        x = np.unique(np.concatenate(xs))
+        x = unique(np.concatenate(xs))
         return x, np.asarray(self.z(x, part))
 
     def summary(self) -> dict[str, Any]:

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.core.stats import unique
 
 COLUMNS = ("distance", "y", "col", "row")
 HEADER = (
@@ -75,7 +76,7 @@ class Markers:
 
     def lines(self) -> np.ndarray:
         """The distinct lateral positions ``y`` [m] of the marker lines, sorted."""
-        return np.unique(self.y)
+        return unique(self.y)
 
     def subset(self, mask: np.ndarray) -> Markers:
         """The markers where ``mask`` is true."""

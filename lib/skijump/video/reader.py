@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.stats import median
+from sportfusion.core.stats import median, unique
 
 THUMB_WIDTH = 480
 
@@ -148,7 +148,7 @@ def read_thumbnails(path: str | Path, progress: Progress = _no_progress) -> tupl
 
 def median_background(frames: list[np.ndarray], most: int = 49) -> np.ndarray:
     """Per-pixel median of up to ``most`` frames spread evenly over the list."""
-    idx = np.unique(np.linspace(0, len(frames) - 1, min(most, len(frames))).round().astype(int))
+    idx = unique(np.linspace(0, len(frames) - 1, min(most, len(frames))).round().astype(int))
     return median(np.stack([frames[i] for i in idx]), axis=0).astype(np.uint8)
 
 
