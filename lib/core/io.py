@@ -231,7 +231,16 @@ def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
     sink = pa.BufferOutputStream()
     # float columns byte-stream-split (Parquet's BYTE_STREAM_SPLIT encoding): zstd then finds the repeated
     # exponent bytes; on a 1e6-row spline-smooth output 2.7x faster to write, 14 % smaller, 2.7x faster to read
-    pq.write_table(table, sink, compression="zstd", use_dictionary=dictionary, use_byte_stream_split=floats_)
+    # zstd's fast level -1 (the format's standard zstd; only the encoder's effort differs): on the same 1e6-row
+    # output 0.33 s instead of 0.42 s to write, 0.5 % larger, read as fast or faster
+    pq.write_table(
+        table,
+        sink,
+        compression="zstd",
+        compression_level=-1,
+        use_dictionary=dictionary,
+        use_byte_stream_split=floats_,
+    )
     return sink.getvalue()
 
 
