@@ -629,8 +629,9 @@ static const char doc_ekf_rts[] =
     "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
-    "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted).  Outputs are written in place; fail is -1 or the step at which a\n"
-    "covariance stopped being positive definite, phase 0 update, 1 prediction, 2 backward pass.";
+    "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted).\n"
+    "Outputs are written in place; fail is -1 or the step at which a covariance stopped being positive\n"
+    "definite, phase 0 update, 1 prediction, 2 backward pass.";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     Py_ssize_t n;
