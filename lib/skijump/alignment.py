@@ -24,7 +24,7 @@ def body_to_start(t: np.ndarray, gyr: np.ndarray, bias: np.ndarray, last_only: b
 
     ``C_k+1 = C_k exp([w_k dt x])`` with the bias-corrected rate ``w_k = gyr_k - bias`` [rad/s] held over
     each step (Rodrigues); ``t`` [s] (n,), ``gyr`` [rad/s] (n, 3), ``bias`` [rad/s] (3,).  ``last_only``:
-    only ``C_{n-1}`` (1, 3, 3).  Where the C extension is built, one sequential product in C (a rts-smooth
+    only ``C_{n-1}`` (1, 3, 3).  Where the C extension is built, one sequential product in C (an rts-smooth
     day pays this twice per jump: ~1 ms each in numpy); else numpy (:func:`_body_to_start_numpy`).
     """
     mod = _ski_native.native()
