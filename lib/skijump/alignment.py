@@ -186,8 +186,11 @@ def gnss_latency(
 
     grid = np.arange(-max_latency, max_latency + step / 2, step)
     # the misfit at every grid delay at once: (delays, fixes, 3) residuals, constant and drift removed
-    tq = (tg[None, :] - grid[:, None]).ravel()
-    vi = np.stack([np.interp(tq, ts, v_imu[:, j]) for j in range(3)], axis=-1).reshape(grid.size, tg.size, 3)
+    # queried fix by fix, each fix's delays ascending: np.interp's search from the previous index then holds
+    # (3x faster than delay by delay; the same values)
+    tq = (tg[:, None] - grid[None, ::-1]).ravel()
+    vi = np.stack([np.interp(tq, ts, v_imu[:, j]) for j in range(3)], axis=-1).reshape(tg.size, grid.size, 3)
+    vi = vi[:, ::-1].transpose(1, 0, 2)  # (delays, fixes, 3)
     r = vg[None] - vi
     r -= np.matmul(basis, np.matmul(pinv, r))
     c = np.einsum("gic,gic->g", r, r)

@@ -113,10 +113,13 @@ def initial_state(
     if w.sum() > np.count_nonzero(inp.t <= inp.t[0] + cfg.init_window):
         # a rest longer than init_window: the mean rate there is the gyro bias (eq 35, Earth rate neglected)
         x0[mdl.I_BG] = inp.u[w, 0:3].mean(axis=0)
+    qa = inrun_attitude(inp.t, inp.u, inp.vel, w, inp.inrun, inp.g0, x0[mdl.I_BG]) if cfg.inrun_align else None
     mags = inp.mag[w & np.isfinite(inp.mag[:, 0])]
     if mags.shape[0] == 0 and np.isfinite(inp.mag[:, 0]).any():
         mags = inp.mag[np.isfinite(inp.mag[:, 0])][:1]
-    if mags.shape[0]:
+    if qa is not None:  # the in-run alignment: the rest's attitude is not needed
+        q = qa
+    elif mags.shape[0]:
         body = np.stack([acc, mags.mean(axis=0)])[None]
         ref = np.stack([np.array([0.0, 0.0, -1.0]), inp.m_o])
         q, _ = quest(body, ref, np.array([0.9, 0.1]))
@@ -125,9 +128,6 @@ def initial_state(
         gx, gy, gz = -acc / np.linalg.norm(acc)
         roll, pitch = math.atan2(gy, gz), math.atan2(-gx, math.hypot(gy, gz))
         q = rotations.quat_from_euler(np.array(roll), np.array(pitch), np.array(math.radians(inp.azimuth_deg)))
-    qa = inrun_attitude(inp.t, inp.u, inp.vel, w, inp.inrun, inp.g0, x0[mdl.I_BG]) if cfg.inrun_align else None
-    if qa is not None:
-        q = qa
     x0[6:10] = q
     _start_velocity(inp, x0)
     p = np.concatenate(
