@@ -158,4 +158,11 @@ def test_numeric_array_integers_with_nulls() -> None:
     arr.validate(full=True)
     assert arr.type == pa.int32() and arr.to_pylist() == [3, None, 7, None]
     assert schema.numeric_array(np.arange(3)[::-1]).to_pylist() == [2, 1, 0]
-    assert schema.numeric_array(np.array([True, False])).to_pylist() == [True, False]  # bool: pyarrow's path
+    flags = np.array([True, False, True, True, False, False, True, False, True])  # over one byte: bit-packed
+    null = np.zeros(9, bool)
+    null[[1, 8]] = True
+    got = schema.numeric_array(flags, null)
+    got.validate(full=True)
+    assert got.type == pa.bool_()
+    assert got.to_pylist() == [None if n else bool(f) for f, n in zip(flags, null, strict=True)]
+    assert schema.numeric_array(flags[::2]).to_pylist() == flags[::2].tolist()

@@ -162,5 +162,5 @@ def grip_columns(table: pa.Table, params: GripParams | None = None) -> tuple[dic
     s_full = np.zeros(n, dtype=bool)
     g_full[rows], s_full[rows] = grip, sat
     starts = int((grip & ~np.r_[False, grip[:-1]]).sum())
-    cols = {"grip": pa.array(g_full, mask=mask), "imu_saturated": pa.array(s_full, mask=mask)}
+    cols = {"grip": schema.numeric_array(g_full, mask), "imu_saturated": schema.numeric_array(s_full, mask)}
     return cols, {"grips": starts, "grip_samples": int(grip.sum()), "saturated": int(sat.sum())}

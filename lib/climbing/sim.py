@@ -527,7 +527,7 @@ def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
         tcols[f"true_q{i}"] = q_bo[:, i]
     truth = pa.table({k: schema.to_arrow(k, v_) for k, v_ in tcols.items()})
     truth = truth.append_column("true_grip", pa.array(grip))
-    truth = truth.append_column("true_hold", pa.array(hold, type=pa.int32(), mask=~on))
+    truth = truth.append_column("true_hold", schema.numeric_array(np.asarray(hold, np.int32), ~on))
     truth_meta = sfmeta.new_meta("truth", DATE)
     truth_meta["frame"] = dict(frame)
     truth_meta["climbing"] = {

@@ -299,7 +299,7 @@ def merge_streams(streams: Sequence[Stream]) -> tuple[pa.Table, MergeReport]:
             chunks.append(s.columns[name].cast(typ))  # type: ignore[union-attr]
             offset += s.t.size
         values = pa.concat_arrays(chunks) if len(chunks) > 1 else chunks[0]
-        out[name] = values.take(pa.array(idx_all, mask=idx_all < 0))
+        out[name] = values.take(schema.numeric_array(idx_all, idx_all < 0))
     for s in clean:
         report.rows[s.name] = int(s.t.size)
     return pa.table(out), report
@@ -375,7 +375,7 @@ def _null_where(table: pa.Table, i: int, bad_of: Callable[[np.ndarray], np.ndarr
     n = int(np.count_nonzero(bad))
     if n:
         mask = bad if valid is None else bad | ~valid
-        table = table.set_column(i, table.field(i), pa.array(vals, type=col.type, mask=mask))
+        table = table.set_column(i, table.field(i), schema.numeric_array(vals, mask).cast(col.type))
     return table, n
 
 

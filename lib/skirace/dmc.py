@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyarrow as pa
 
+from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.gravity import G_STANDARD, normal_gravity
 from sportfusion.core.magfield import field_from_angles, inclination_declination, reference_field
@@ -374,7 +375,7 @@ def dmc_session(
     mask[rows] = True
     sing = np.zeros(n, bool)
     sing[rows] = res.singular
-    cols["dmc_singular"] = pa.array(sing, mask=~mask)  # null on rows without an attitude
+    cols["dmc_singular"] = schema.numeric_array(sing, ~mask)  # null on rows without an attitude
     for i, a in enumerate("xyz"):
         put(f"a{a}_dmc", a_dmc[:, i])
     if res.bias_gyr is not None and res.std_rpy is not None:
@@ -392,7 +393,7 @@ def dmc_session(
             put(f"std_bias_acc_{a}", np.full(rows.size, res.std_bias_acc[i]))
     bad = np.zeros(n, bool)
     bad[rows] = flag
-    cols["mag_implausible"] = pa.array(bad, mask=~mask)
+    cols["mag_implausible"] = schema.numeric_array(bad, ~mask)
     info.update({"rows": int(rows.size), "singular": int(res.singular.sum()), "rate_hz": fs})
     return DMCSessionResult(cols, mask, info, warnings)
 

@@ -20,6 +20,7 @@ import pyarrow as pa
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
+from sportfusion.core import schema
 
 LAMBDA = 50.0  # turn wavelength along x [m]
 SLOPE = 0.3  # dz/dx [1]
@@ -112,7 +113,7 @@ def run_table(
         ev += ["gate"] * tg.size
         gate += [int(g) for g in gate_ids]
     order = np.argsort(cols["t"], kind="stable")
-    arrays = {k: pa.array(c[order], mask=np.isnan(c[order])) for k, c in cols.items()}
+    arrays = {k: schema.numeric_array(c[order], np.isnan(c[order])) for k, c in cols.items()}
     if events:
         arrays["event"] = pa.array([ev[i] for i in order], type=pa.string())
         arrays["gate"] = pa.array([gate[i] for i in order], type=pa.int32())

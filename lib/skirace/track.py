@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyarrow as pa
 
+from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.rotations import ned_to_local
 from sportfusion.core.stats import median
@@ -212,7 +213,7 @@ def smooth_track(
     ca, sa = np.cos(np.deg2rad(azimuth_deg)), np.sin(np.deg2rad(azimuth_deg))
     put("course", np.arctan2(d1[:, 0] * sa + d1[:, 1] * ca, d1[:, 0] * ca - d1[:, 1] * sa))
     filled = in_gap & cover
-    cols["spline_filled"] = pa.array(filled, mask=~cover)  # null where no value is given
+    cols["spline_filled"] = schema.numeric_array(filled, ~cover)  # null where no value is given
     if fit.std is not None:
         edge = _at_rows(fit.std, tk, t, rows, has)
         big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)

@@ -334,8 +334,8 @@ def _session_table(t, gyr, acc, mag, ig, lat, lon, h, vel, cfg: SkiJumpConfig) -
         cols[name] = _column(name, sparse(vel[:, k]))
     mask = np.ones(n, bool)
     mask[ig] = False
-    cols["gnss_fix"] = pa.array(np.ones(n, np.int16), mask=mask)
-    cols["gnss_sats"] = pa.array(np.full(n, 9, np.int16), mask=mask)
+    cols["gnss_fix"] = schema.numeric_array(np.ones(n, np.int16), mask)
+    cols["gnss_sats"] = schema.numeric_array(np.full(n, 9, np.int16), mask)
     cols["gnss_sigma_h"] = _column("gnss_sigma_h", sparse(np.full(ig.size, cfg.sigma_pos[0])))
     cols["gnss_sigma_v"] = _column("gnss_sigma_v", sparse(np.full(ig.size, cfg.sigma_pos[2])))
     return pa.table(cols)
