@@ -375,7 +375,10 @@ def _null_where(table: pa.Table, i: int, bad_of: Callable[[np.ndarray], np.ndarr
     n = int(np.count_nonzero(bad))
     if n:
         mask = bad if valid is None else bad | ~valid
-        table = table.set_column(i, table.field(i), schema.numeric_array(vals, mask).cast(col.type))
+        arr = schema.numeric_array(vals, mask)  # vals has the column's float dtype: no cast (pyarrow.compute)
+        if arr.type != col.type:
+            arr = pa.array(vals, type=col.type, mask=mask)
+        table = table.set_column(i, table.field(i), arr)
     return table, n
 
 
