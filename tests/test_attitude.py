@@ -53,6 +53,31 @@ def test_quest_many_vectors_matches_davenport(n: int) -> None:
         assert np.max(np.abs(loss - ld)) < 1e-12
 
 
+@pytest.mark.parametrize("k", [2, 3, 4, 40])
+def test_single_sample_path_equals_the_batched_one(k: int) -> None:
+    """One sample (the alignments) runs on Python floats: the same numbers as the array path, half turns
+    (the adjugate's other column) and NaN/zero vectors included."""
+    ref = RNG.standard_normal((k, 3))
+    w = RNG.uniform(0.5, 2.0, k)
+    qs = [*R.quat_normalize(RNG.standard_normal((30, 4))), [0, 1, 0, 0], [0, 0, 0.6, 0.8], [1e-12, 0.6, 0, 0.8]]
+    for i, q in enumerate(qs):
+        body = observe(np.asarray(q, float)[None], ref, noise=0.0 if i % 2 else 0.05)
+        q1, l1 = Q.quest(body, ref, w)
+        qb, lb = Q._quest_block(body, ref, w / w.sum(), 8)
+        assert q1.shape == (1, 4) and l1.shape == (1,)
+        # q and -q are one rotation: at a half turn (q0 ~ 1e-17) either sign may come out of the rounding
+        sign = 1.0 if abs(qb[0, 0]) > 1e-9 else np.sign(q1[0] @ qb[0])
+        np.testing.assert_allclose(q1, sign * qb, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(l1, lb, rtol=0, atol=1e-12)
+        assert q1[0, 0] >= 0
+    body = observe(np.array([[1.0, 0, 0, 0]]), ref)
+    for bad in (0.0, np.nan):
+        b = body.copy()
+        b[0, 0] = bad
+        q1, l1 = Q.quest(b, ref, w)
+        assert np.isnan(q1).all() and np.isnan(l1).all()
+
+
 def test_exact_observations_and_half_turns():
     q = R.quat_normalize(
         np.vstack([RNG.standard_normal((500, 4)), [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [1e-12, 0.6, 0, 0.8]]])

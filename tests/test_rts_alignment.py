@@ -163,6 +163,45 @@ def test_lever_arm_removal_inverts_the_antenna_model():
     np.testing.assert_allclose(seg.vel, v, atol=1e-12)
 
 
+def test_gnss_latency_against_per_delay_least_squares():
+    """The misfit by sums (constant = mean, drift orthogonal to it) equals np.linalg.lstsq delay by delay."""
+    from sportfusion.skijump.alignment import gnss_latency
+
+    rng = np.random.default_rng(8)
+    g0, lat = 9.81, 0.07
+    t = np.arange(0.0, 12.0, 0.01)
+    a_ned = np.column_stack([3.0 * np.sin(0.9 * t), 2.0 * np.cos(1.3 * t), 1.5 * np.sin(2.1 * t + 0.4)])
+    v_true = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a_ned[1:] + a_ned[:-1]) * 0.01, axis=0)])
+
+    x = np.zeros((t.size, 22))
+    x[:, 6] = 1.0  # body = NED
+    u = np.zeros((t.size, 6))
+    u[:, 3:6] = a_ned - [0.0, 0.0, g0] + 0.02  # specific force with a residual bias (a drift in velocity)
+    vel = np.full((t.size, 3), np.nan)
+    k = np.arange(0, t.size, 10)
+    vel[k] = np.column_stack([np.interp(t[k] - lat, t, v_true[:, j]) for j in range(3)]) + 1.5  # offset
+    vel[k] += 0.01 * rng.standard_normal((k.size, 3))
+    span = (1.0, 11.0)
+    tau = gnss_latency(t, u, x, vel, g0, span)
+
+    # reference: the IMU velocity as the function integrates it, each delay fitted by lstsq
+    sel = np.flatnonzero((t >= span[0]) & (t <= span[1]))
+    gk = sel[np.isfinite(vel[sel, 0])]
+    a = u[sel, 3:6] + [0.0, 0.0, g0]
+    v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * 0.01, axis=0)])
+    basis = np.column_stack([np.ones(gk.size), t[gk]])
+    grid = np.arange(-0.3, 0.3 + 0.0025, 0.005)
+    cost = []
+    for d in grid:
+        vi = np.column_stack([np.interp(t[gk] - d, t[sel], v_imu[:, j]) for j in range(3)])
+        cost.append(np.linalg.lstsq(basis, vel[gk] - vi, rcond=None)[1].sum())
+    c = np.array(cost)
+    i = int(np.argmin(c))
+    ref = grid[i] + 0.5 * (c[i - 1] - c[i + 1]) / (c[i - 1] - 2 * c[i] + c[i + 1]) * 0.005
+    assert tau == pytest.approx(ref, abs=1e-9)
+    assert abs(tau - lat) < 0.002
+
+
 @pytest.mark.slow
 def test_gnss_latency_found_and_removed():
     from sportfusion.evaluate import errors

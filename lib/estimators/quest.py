@@ -25,6 +25,8 @@ attitude.  :func:`davenport` is the brute-force eigen-decomposition reference.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 # from this many samples on, QUEST runs compiled (numba, loaded on first use); below, numpy
@@ -103,6 +105,9 @@ def quest(
     b = np.asarray(body, float)
     r = np.asarray(ref, float)
     n = b.shape[0]
+    if n == 1:  # one attitude (an alignment): the same steps on Python floats, ~20x less overhead than arrays
+        q1, loss1 = _quest_one(b[0], r[0] if r.ndim == 3 else r, a, newton_steps)
+        return q1[None], np.array([loss1])
     if n >= _COMPILED_FROM:
         from sportfusion.estimators._quest_kernel import quest_batch
 
@@ -175,6 +180,52 @@ def _quest_block(b: np.ndarray, r: np.ndarray, a: np.ndarray, newton_steps: int)
         qs /= np.sqrt(np.sum(qs * qs, axis=-1, keepdims=True))
     qs *= np.where(qs[:, :1] < 0, -1.0, 1.0)
     return qs, a.sum() - lam
+
+
+def _quest_one(b: np.ndarray, r: np.ndarray, a: np.ndarray, newton_steps: int) -> tuple[np.ndarray, float]:
+    """QUEST for one sample: ``b``, ``r`` (k, 3), ``a`` (k,) normalised; the steps of :func:`_quest_block`
+    (profile matrix, characteristic polynomial, Newton-Raphson, adjugate column) on Python floats.
+    Returns ``(q (4,), loss)``; NaN where a vector is zero or NaN."""
+    k = b.shape[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        bu = b / np.sqrt(np.sum(b * b, axis=1))[:, None]
+        ru = r / np.sqrt(np.sum(r * r, axis=1))[:, None]
+    B = ((bu * a[:, None]).T @ ru).tolist()  # B[p][c] = sum_i a_i b_ip r_ic
+    sig = B[0][0] + B[1][1] + B[2][2]
+    z = (B[1][2] - B[2][1], B[2][0] - B[0][2], B[0][1] - B[1][0])
+    K = [[sig, *z], [z[0], 0.0, 0.0, 0.0], [z[1], 0.0, 0.0, 0.0], [z[2], 0.0, 0.0, 0.0]]
+    for i in range(3):
+        for j in range(3):
+            K[i + 1][j + 1] = B[i][j] + B[j][i] - (sig if i == j else 0.0)
+    asum = float(a.sum())
+    if k == 2:
+        cb, cr = float(bu[0] @ bu[1]), float(ru[0] @ ru[1])
+        sb, sr = math.sqrt(max(1.0 - cb * cb, 0.0)), math.sqrt(max(1.0 - cr * cr, 0.0))
+        a0, a1 = float(a[0]), float(a[1])
+        lam = math.sqrt(max(a0**2 + a1**2 + 2 * a0 * a1 * (cb * cr + sb * sr), 0.0))  # max(nan, 0.0) is nan
+    else:
+        K2 = [[sum(K[i][m] * K[m][j] for m in range(4)) for j in range(4)] for i in range(4)]
+        c2 = -0.5 * (K2[0][0] + K2[1][1] + K2[2][2] + K2[3][3])
+        c1 = -sum(K2[i][j] * K[j][i] for i in range(4) for j in range(4)) / 3.0
+        adjk = _adj4_sym(K)
+        c0 = sum(K[0][j] * adjk[j][0] for j in range(4))  # det K along its first row
+        lam = 1.0
+        for _ in range(newton_steps):
+            p = ((lam * lam + c2) * lam + c1) * lam + c0
+            dp = (4 * lam * lam + 2 * c2) * lam + c1
+            lam = lam - (p / dp if dp != 0 else 0.0)
+    M = [[(lam if i == j else 0.0) - K[i][j] for j in range(4)] for i in range(4)]
+    adj = _adj4_sym(M)
+    tr = adj[0][0] + adj[1][1] + adj[2][2] + adj[3][3]
+    col = 0
+    if abs(adj[0][0]) < 0.25 * abs(tr):  # near 180 deg: the column with the largest diagonal element
+        col = max(range(4), key=lambda c: abs(adj[c][c]))
+    q = np.array([adj[i][col] for i in range(4)])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q /= math.sqrt(float(q @ q))
+    if q[0] < 0:
+        q = -q
+    return q, asum - lam
 
 
 def _adj4_sym(a: list) -> list:

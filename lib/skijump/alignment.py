@@ -181,19 +181,19 @@ def gnss_latency(
     a = np.einsum("nji,nj->ni", m, u[k, 3:6] - x[k, 13:16]) + np.array([0.0, 0.0, g0])
     v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None], axis=0)])
     tg, vg = t[gk], vel[gk]
-    basis = np.column_stack([np.ones(tg.size), tg - tg.mean()])
-    pinv = np.linalg.pinv(basis)  # (2, m): a constant and a drift per axis, removed below
-
     grid = np.arange(-max_latency, max_latency + step / 2, step)
-    # the misfit at every grid delay at once: (delays, fixes, 3) residuals, constant and drift removed
+    # the misfit at every grid delay at once: (fixes, delays, 3) residuals, constant and drift removed
     # queried fix by fix, each fix's delays ascending: np.interp's search from the previous index then holds
     # (3x faster than delay by delay; the same values)
     tq = (tg[:, None] - grid[None, ::-1]).ravel()
     vi = np.stack([np.interp(tq, ts, v_imu[:, j]) for j in range(3)], axis=-1).reshape(tg.size, grid.size, 3)
-    vi = vi[:, ::-1].transpose(1, 0, 2)  # (delays, fixes, 3)
-    r = vg[None] - vi
-    r -= np.matmul(basis, np.matmul(pinv, r))
-    c = np.einsum("gic,gic->g", r, r)
+    r = vg[:, None] - vi  # delays descending along axis 1
+    # least squares on a constant and a drift per delay and axis: the basis 1, tg - mean(tg) is orthogonal, so
+    # the constant is the mean and the drift's share of the squares (sum tc r)^2 / sum tc^2
+    r -= r.mean(axis=0)
+    tc = tg - tg.mean()
+    s1 = np.tensordot(tc, r, axes=(0, 0))  # (delays, 3)
+    c = (np.einsum("igc,igc->g", r, r) - np.einsum("gc,gc->g", s1, s1) / float(tc @ tc))[::-1]
     i = int(np.argmin(c))
     if i == 0 or i == grid.size - 1:
         return None
