@@ -325,6 +325,48 @@ def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
         assert R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False)[2].shape == (0, 253)
 
 
+@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The forward pass's predictions kept in ``work``'s third array give the backward pass the numbers it
+    would form again, to the bit; smooth_inputs keeps them on a session of many short segments only."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(passes=1)
+    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
+    x0, P0 = R.initial_state(inp, cfg)
+    n = inp.t.size
+    work = (np.empty((n, 22)), np.empty((n, 253)))
+    pred = np.full((n, _ski_native.NPRED), np.nan)
+    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, work=work)
+    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, work=(*work, pred))
+    assert np.isfinite(pred[: n - 1]).all() and np.isnan(pred[n - 1]).all()  # filled by the forward pass
+    for i in (0, 1, 4):
+        np.testing.assert_array_equal(a[i], b[i])
+    for k in a[3]:
+        np.testing.assert_array_equal(a[3][k], b[3][k], err_msg=k)
+
+    seen = []
+    run = _ski_native.ski_ekf_rts
+
+    def spy(*args, **kw):  # noqa: ANN002, ANN003, ANN202
+        seen.append(len(kw["work"]) if kw.get("work") is not None else 0)
+        return run(*args, **kw)
+
+    monkeypatch.setattr(_ski_native, "ski_ekf_rts", spy)
+    t = schema.floats(tab.slice(0, 900), "t")
+    paused = tab.slice(0, 900).set_column(0, "t", pa.array(t + 5.0 * np.searchsorted([2.25, 4.5, 6.75], t)))
+    inp4, _ = RI.session_inputs(paused, meta, hill, cfg, [8.0 + 15.0], [8.5 + 15.0])  # four segments
+    R.smooth_inputs(inp4, hill, cfg, keep_cov=False)
+    assert seen == [3] * 4
+    seen.clear()
+    R.smooth_inputs(inp, hill, cfg, keep_cov=False)  # one segment: fresh scratch would cost more than it saves
+    assert seen == [2]
+
+
 @pytest.mark.slow
 def test_relinearisation_passes_recover_a_bad_start():
     """Seed 0 draws a gyro bias of 0.11 rad/s: one EKF pass locks onto a wrong heading, the passes do not."""

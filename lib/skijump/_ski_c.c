@@ -26,6 +26,8 @@
 #define NSTD 28
 #define NPAR 23
 #define NRES 16
+/* a step's stored prediction (pred): T = Phi_top P (10 x N) and the upper triangle of P_k+1|k's kinematic block */
+#define NT (10 * N + 55)
 
 #if defined(__GNUC__)
 #define PREFETCH(p) __builtin_prefetch(p)
@@ -413,7 +415,8 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                       const double *x0, const double *P0,
                       const double *mno, const double *m_o, const double *qd, const double *irz, const double *irdz,
                       Py_ssize_t nir, const double *laz, const double *ladz, Py_ssize_t nla, const double *par,
-                      double *x_filt, double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, int *phase) {
+                      double *x_filt, double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, double *pred,
+                      int *phase) {
     double g0 = par[0], rmag = par[7], rcq = par[8], rir = par[9], rhir = par[10], rla = par[11];
     const double *rpos = par + 1, *rvel = par + 4;
     double ir_x0 = par[12], ir_step = par[13], la_x0 = par[14], la_step = par[15];
@@ -518,6 +521,13 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             phi_qd(x, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
             mirror(P);
             predict_cov(P, Phi, Qd, Pn, Tf);
+            if (smooth && pred) { /* what the backward pass would form again at this step */
+                double *o = pred + NT * k;
+                memcpy(o, Tf, sizeof(Tf));
+                o += 10 * N;
+                for (int i = 0; i < 10; i++)
+                    for (int j = i; j < 10; j++) *o++ = Pn[i][j];
+            }
             double(*Pt)[N] = P;
             P = Pn;
             Pn = Pt;
@@ -541,9 +551,32 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         if (k >= 2) /* the step after next's filtered covariance (2 KB): read from memory while this step computes */
             for (int i = 0; i < NP; i += 8) PREFETCH(Pbuf + NP * (k - 2) + i);
         unpack(Pbuf + NP * k, Pf);
-        double dt = t[k + 1] - t[k];
-        phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
-        predict_cov(Pf, Phi, Qd, Pp, T);
+        if (pred) { /* the forward pass's T and kinematic block; the rest of P_k+1|k is T's and Pf's (predict_cov) */
+            const double *o = pred + NT * k;
+            if (k >= 1)
+                for (int i = 0; i < NT; i += 8) PREFETCH(o - NT + i);
+            memcpy(T, o, sizeof(T));
+            o += 10 * N;
+            for (int i = 0; i < 10; i++) {
+                for (int j = i; j < 10; j++) {
+                    Pp[i][j] = *o;
+                    Pp[j][i] = *o++;
+                }
+                for (int j = 10; j < N; j++) {
+                    Pp[i][j] = T[i][j];
+                    Pp[j][i] = T[i][j];
+                }
+            }
+            for (int i = 10; i < N; i++)
+                for (int j = i; j < N; j++) {
+                    Pp[i][j] = Pf[i][j];
+                    Pp[j][i] = Pf[i][j];
+                }
+        } else {
+            double dt = t[k + 1] - t[k];
+            phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
+            predict_cov(Pf, Phi, Qd, Pp, T);
+        }
         for (int i = 0; i < N; i++)
             if (!(Pp[i][i] > 0.0)) {
                 *phase = 2;
@@ -625,20 +658,22 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
 
 static const char doc_ekf_rts[] =
     "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, still, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
-    "        x_filt, x_pred, x_smooth, P_packed, resid, std) -> (fail, phase)\n\n"
+    "        x_filt, x_pred, x_smooth, P_packed, resid, std[, pred]) -> (fail, phase)\n\n"
     "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
     "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted).\n"
     "Outputs are written in place; fail is -1 or the step at which a covariance stopped being positive\n"
-    "definite, phase 0 update, 1 prediction, 2 backward pass.";
+    "definite, phase 0 update, 1 prediction, 2 backward pass.  pred (optional, with smooth; at least (n - 1) * 275\n"
+    "items): scratch where the forward pass keeps each step's Phi_top P (10 x 22) and its prediction's kinematic\n"
+    "block (upper triangle, 55) for the backward pass, which then does not form them again.";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     Py_ssize_t n;
-    PyObject *o[24];
-    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOOO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+    PyObject *o[24], *opred = Py_None;
+    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOOO|O", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
                           &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
-                          &o[19], &o[20], &o[21], &o[22], &o[23]))
+                          &o[19], &o[20], &o[21], &o[22], &o[23], &opred))
         return NULL;
     if (n < 1) {
         PyErr_SetString(PyExc_ValueError, "ekf_rts: n must be at least 1");
@@ -657,6 +692,16 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
         if (get_buf(o[k], &b[k], counts[k], k >= 18, names[k]) < 0) break;
     }
     PyObject *res = NULL;
+    Buf bp;
+    int has_pred = 0;
+    if (k == 24 && opred != Py_None) { /* at least n - 1 steps of NT */
+        if (get_buf(opred, &bp, -NT * (n > 1 ? n - 1 : 1), 1, "pred") < 0) {
+            release(&bp, 1);
+            k = 23; /* no run; all 24 released below */
+        } else {
+            has_pred = 1;
+        }
+    }
     if (k == 24) {
         Py_ssize_t nir = b[13].view.len / 8, nla = b[15].view.len / 8;
         const double *par = (const double *)b[17].view.buf;
@@ -675,11 +720,12 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
             fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
                        p[14], nir, p[15], p[16], nla, p[17], (double *)b[18].view.buf, (double *)b[19].view.buf,
                        (double *)b[20].view.buf, (double *)b[21].view.buf, (double *)b[22].view.buf,
-                       (double *)b[23].view.buf, &phase);
+                       (double *)b[23].view.buf, has_pred ? (double *)bp.view.buf : NULL, &phase);
             Py_END_ALLOW_THREADS
             res = Py_BuildValue("ni", fail, phase);
         }
     }
+    if (has_pred) release(&bp, 1);
     release(b, k < 24 ? k + 1 : 24); /* the buffers after the one that failed were never taken */
     return res;
 }

@@ -34,6 +34,15 @@ RESIDUALS = (
 )
 #: columns of the residual array
 NRES = sum(w for _, w in RESIDUALS)
+#: Columns of a step's stored prediction (``work``'s third array): ``Phi_top P`` (10 x 22) and the upper
+#: triangle of the predicted covariance's kinematic block (55).
+NPRED = 10 * N + 55
+#: Longest run [steps] whose predictions are stored for the backward pass (2.2 KB/step of scratch).  On a
+#: multi-jump day the scratch is reused from jump to jump and the backward pass skips forming them again
+#: (23 jumps, 59k steps: smoothing 0.76 -> 0.65 s CPU); on one segment the scratch's fresh pages cost more
+#: than that saves (one 60k-step segment: 0.51 -> 0.67 s), so smooth_inputs keeps them only where the
+#: longest segment is at most a third of the session, and at most this long (36 MB).
+PRED_MAX_STEPS = 16384
 
 
 def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -78,7 +87,8 @@ def ski_ekf_rts(
     no concatenation afterwards); ``resid`` is set to NaN first.  ``work``: ``(x_pred, P_packed)`` scratch
     arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would have their pages
     zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
-    returned (``smoothed_cov=False``).  Raises RuntimeError when the extension is not built (call
+    returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of :data:`NPRED`)
+    keeps each step's prediction from the forward pass for the backward pass (same results, to the bit).  Raises RuntimeError when the extension is not built (call
     :func:`native` first).
     """
     mod = native()
@@ -86,8 +96,11 @@ def ski_ekf_rts(
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
     keep = bool(smooth) or bool(filtered_cov)
+    pred = None
     if work is not None and smooth and not smoothed_cov:
         x_pred, pbuf = work[0][:n], work[1][:n]
+        if len(work) > 2 and work[2].shape[0] >= n - 1:
+            pred = work[2]
     else:
         x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
         pbuf = np.empty((n, NP) if keep else (1, NP))
@@ -119,6 +132,7 @@ def ski_ekf_rts(
         pbuf,
         resid,
         std if smooth else np.empty((n, NSTD)),
+        pred,
     )
     if not keep or (smooth and not smoothed_cov):
         pbuf = np.empty((0, NP))
