@@ -189,3 +189,50 @@ def test_c_path_with_the_first_grip_at_the_end(engines, first_grip: str) -> None
     out = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=1))
     _same(out["numpy"], out["c"])
     assert np.isfinite(out["c"].smooth_pos[-1]).all()
+
+
+@needs_c
+def test_transition_blocks_equal_the_numpy_ones(engines) -> None:
+    """The transition estimator's dynamic-model residuals, Jacobian blocks and normal equations in C equal
+    numpy's: large and tiny rotations per step (the series branches), relative turns near a half turn
+    (Shepperd's other cases), saturated samples and magnetometer gaps."""
+    from scipy.spatial.transform import Rotation
+
+    from sportfusion.climbing import transition as tr
+
+    rng = np.random.default_rng(17)
+    n = 300
+    t = np.cumsum(rng.uniform(0.008, 0.012, n))
+    gyr = rng.normal(0.0, 2.0, (n, 3))
+    gyr[::7] *= 1e-6  # |w dt| below 1e-5 rad
+    acc = rng.normal([0.0, 0.0, 9.81], 3.0, (n, 3))
+    mag = rng.normal([0.3, 0.0, -0.9], 0.1, (n, 3))
+    mag[40:50] = np.nan
+    grip = rng.uniform(size=n) < 0.2
+    sat = rng.uniform(size=n) < 0.05
+    prob = tr.Problem(
+        t, acc, gyr, mag, grip, sat, np.array([0.4, 0.0, -0.9]), np.array([0.0, 0.0, -9.81]), tr.TransitionParams()
+    )
+    r = Rotation.random(n, random_state=3).as_matrix()
+    r[100:120] = r[99]  # relative rotations near the identity
+    for k in range(200, 220):  # ... and near half turns about each axis
+        r[k] = r[k - 1] @ Rotation.from_rotvec(np.eye(3)[k % 3] * (np.pi - 1e-3 * (k % 5))).as_matrix()
+    st = tr.State(r, rng.normal(0.0, 1.0, (n, 3)), rng.normal(0.0, 0.05, 9))
+
+    def run():  # noqa: ANN202
+        lin = tr.linearize(prob, st)
+        return lin, tr.normal_equations(prob, lin)
+
+    out = engines(run)
+    (la, na), (lb, nb) = out["numpy"], out["c"]
+    for name in ("r_dyn", "r_mag", "r_zupt", "r_prior", "ja", "jb", "jc", "jm"):
+        np.testing.assert_allclose(getattr(lb, name), getattr(la, name), rtol=1e-10, atol=1e-9, err_msg=name)
+    assert lb.cost == pytest.approx(la.cost, rel=1e-12)
+    for name in ("hd", "ho", "hxb", "hbb", "gx", "gb"):
+        a, b = getattr(na, name), getattr(nb, name)
+        np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-9 * np.abs(a).max(), err_msg=name)
+    with pytest.raises(ValueError, match="expected"):  # buffers of the wrong size are refused
+        outs = (np.empty((n - 1, 6)), np.empty((n - 1, 6, 6)), np.empty((n - 1, 6, 6)), np.empty((n - 1, 6, 9)))
+        C.transition_blocks(n - 1, prob.dt[:-1], gyr, acc, r, st.v, st.b, prob.sig_dyn, prob.g_world, *outs)
+    with pytest.raises(ValueError, match="expected"):
+        C.normal_blocks(n - 1, la.ja, la.jb, la.jc, la.r_dyn, *(np.empty(3) for _ in range(6)))

@@ -596,16 +596,267 @@ static PyObject *py_complementary(PyObject *self, PyObject *args) {
     return res;
 }
 
+/* ---- the transition estimator's Levenberg-Marquardt blocks (transition.py: linearize, normal_equations) ----
+ * The dynamic model's whitened residuals and Jacobian blocks per step, and their contributions to the normal
+ * equations, in one pass over the samples (numpy forms each as a batch of small matrix products).  The
+ * SO(3) helpers follow climbing._so3 / core.rotations step by step: Exp through the unit quaternion (series of
+ * sin(x/2)/x below 1e-4 rad, normalised), Log through Shepperd's quaternion and atan2, the right Jacobian and
+ * its inverse in closed form with series below 1e-5 rad. */
+
+static void so3_exp(const double *phi, double R[3][3]) {
+    double th = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]);
+    double k = th < 1e-4 ? 0.5 - th * th / 48.0 : sin(0.5 * th) / th;
+    double q0 = cos(0.5 * th), q1 = k * phi[0], q2 = k * phi[1], q3 = k * phi[2];
+    double nq = sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3);
+    q0 /= nq, q1 /= nq, q2 /= nq, q3 /= nq;
+    R[0][0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3; /* R(q) = M_BO(q)^T */
+    R[1][0] = 2 * (q1 * q2 + q0 * q3);
+    R[2][0] = 2 * (q1 * q3 - q0 * q2);
+    R[0][1] = 2 * (q1 * q2 - q0 * q3);
+    R[1][1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3;
+    R[2][1] = 2 * (q2 * q3 + q0 * q1);
+    R[0][2] = 2 * (q0 * q2 + q1 * q3);
+    R[1][2] = 2 * (q2 * q3 - q0 * q1);
+    R[2][2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3;
+}
+
+static void so3_log(double R[3][3], double *out) {
+    double tr = R[0][0] + R[1][1] + R[2][2], cand[4] = {tr, R[0][0], R[1][1], R[2][2]}, q[4], s;
+    int k = 0;
+    for (int i = 1; i < 4; i++)
+        if (cand[i] > cand[k]) k = i;
+    if (k == 0) {
+        s = sqrt(fmax(1.0 + tr, 0.0)) * 2;
+        q[0] = 0.25 * s, q[1] = (R[2][1] - R[1][2]) / s, q[2] = (R[0][2] - R[2][0]) / s, q[3] = (R[1][0] - R[0][1]) / s;
+    } else if (k == 1) {
+        s = sqrt(fmax(1.0 + R[0][0] - R[1][1] - R[2][2], 0.0)) * 2;
+        q[0] = (R[2][1] - R[1][2]) / s, q[1] = 0.25 * s, q[2] = (R[0][1] + R[1][0]) / s, q[3] = (R[0][2] + R[2][0]) / s;
+    } else if (k == 2) {
+        s = sqrt(fmax(1.0 + R[1][1] - R[0][0] - R[2][2], 0.0)) * 2;
+        q[0] = (R[0][2] - R[2][0]) / s, q[1] = (R[0][1] + R[1][0]) / s, q[2] = 0.25 * s, q[3] = (R[1][2] + R[2][1]) / s;
+    } else {
+        s = sqrt(fmax(1.0 + R[2][2] - R[0][0] - R[1][1], 0.0)) * 2;
+        q[0] = (R[1][0] - R[0][1]) / s, q[1] = (R[0][2] + R[2][0]) / s, q[2] = (R[1][2] + R[2][1]) / s, q[3] = 0.25 * s;
+    }
+    double nq = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (int i = 0; i < 4; i++) q[i] /= nq;
+    if (q[0] < 0)
+        for (int i = 0; i < 4; i++) q[i] = -q[i];
+    double sv = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]), th = 2.0 * atan2(sv, q[0]);
+    double kk = sv < 1e-8 ? 2.0 / fmax(q[0], 1e-300) : th / sv;
+    for (int i = 0; i < 3; i++) out[i] = kk * q[i + 1];
+}
+
+static void hat3(const double *v, double K[3][3]) {
+    K[0][0] = 0.0, K[0][1] = -v[2], K[0][2] = v[1];
+    K[1][0] = v[2], K[1][1] = 0.0, K[1][2] = -v[0];
+    K[2][0] = -v[1], K[2][1] = v[0], K[2][2] = 0.0;
+}
+
+static void mul3(double A[3][3], double B[3][3], double C[3][3]) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) C[i][j] = A[i][0] * B[0][j] + A[i][1] * B[1][j] + A[i][2] * B[2][j];
+}
+
+/* I + a K + b K^2 with K = hat(phi): the right Jacobian (inverse: 0) or its inverse (1) */
+static void so3_jr(const double *phi, int inverse, double J[3][3]) {
+    double th = sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]), K[3][3], K2[3][3], a, b;
+    int small = th < 1e-5;
+    double ts = small ? 1.0 : th;
+    if (inverse) {
+        a = 0.5;
+        b = small ? 1.0 / 12.0 : 1.0 / (ts * ts) - (1.0 + cos(ts)) / (2.0 * ts * sin(ts));
+    } else {
+        a = -(small ? 0.5 : (1.0 - cos(ts)) / (ts * ts));
+        b = small ? 1.0 / 6.0 : (ts - sin(ts)) / (ts * ts * ts);
+    }
+    hat3(phi, K);
+    mul3(K, K, K2);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) J[i][j] = (i == j ? 1.0 : 0.0) + a * K[i][j] + b * K2[i][j];
+}
+
+/* per step k < m: whitened r_dyn (6), ja, jb (6 x 6), jc (6 x 9) as transition.linearize */
+static void transition_blocks(int64_t m, const double *dt, const double *gyr, const double *acc, const double *r,
+                              const double *v, const double *b, const double *sig, const double *g, double *r_dyn,
+                              double *ja, double *jb, double *jc) {
+    for (int64_t k = 0; k < m; k++) {
+        double d = dt[k], phi[3], f[3], E[3][3], R0[3][3], R1[3][3], T[3][3], RE[3][3], rr[3], Ji[3][3], Jr[3][3];
+        double Hf[3][3], RH[3][3], M[3][3], w[6], res[6];
+        for (int i = 0; i < 3; i++) {
+            phi[i] = (gyr[3 * k + i] - b[3 + i]) * d;
+            f[i] = acc[3 * k + i] - b[i];
+        }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                R0[i][j] = r[9 * k + 3 * i + j];
+                R1[i][j] = r[9 * (k + 1) + 3 * i + j];
+            }
+        so3_exp(phi, E);
+        for (int i = 0; i < 3; i++) /* R1^T R0 */
+            for (int j = 0; j < 3; j++) T[i][j] = R1[0][i] * R0[0][j] + R1[1][i] * R0[1][j] + R1[2][i] * R0[2][j];
+        mul3(T, E, RE);
+        so3_log(RE, rr);
+        for (int i = 0; i < 3; i++) {
+            double rf = R0[i][0] * f[0] + R0[i][1] * f[1] + R0[i][2] * f[2];
+            res[i] = rr[i];
+            res[3 + i] = v[3 * k + i] + d * (rf + g[i]) - v[3 * (k + 1) + i];
+        }
+        for (int i = 0; i < 6; i++) {
+            r_dyn[6 * k + i] = res[i] / sig[6 * k + i];
+            w[i] = 1.0 / sig[6 * k + i];
+        }
+        so3_jr(rr, 1, Ji);
+        so3_jr(phi, 0, Jr);
+        hat3(f, Hf);
+        mul3(R0, Hf, RH);
+        double *A = ja + 36 * k, *B = jb + 36 * k, *C = jc + 54 * k;
+        memset(A, 0, 36 * sizeof(double));
+        memset(B, 0, 36 * sizeof(double));
+        memset(C, 0, 54 * sizeof(double));
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++) {
+                A[6 * i + j] = (Ji[i][0] * E[j][0] + Ji[i][1] * E[j][1] + Ji[i][2] * E[j][2]) * w[i]; /* Jinv E^T */
+                A[6 * (3 + i) + j] = (-d * RH[i][j]) * w[3 + i];
+                B[6 * i + j] = (-Ji[i][0] * RE[j][0] - Ji[i][1] * RE[j][1] - Ji[i][2] * RE[j][2]) * w[i];
+                C[9 * (3 + i) + j] = (-d * R0[i][j]) * w[3 + i];
+            }
+        mul3(Ji, Jr, M);
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++) C[9 * i + 3 + j] = (-M[i][j] * d) * w[i];
+            A[6 * (3 + i) + 3 + i] = w[3 + i];
+            B[6 * (3 + i) + 3 + i] = -w[3 + i];
+        }
+    }
+}
+
+/* the dynamic model's part of J^T J and J^T r (transition.normal_equations): hd (n x 36) and hxb (n x 54),
+   gx (n x 6) accumulated from zero, ho (m x 36) set, hbb (81) and gb (9) summed over the steps */
+static void normal_blocks(int64_t m, const double *ja, const double *jb, const double *jc, const double *r_dyn,
+                          double *hd, double *ho, double *hxb, double *hbb, double *gx, double *gb) {
+    memset(hd, 0, 36 * (m + 1) * sizeof(double));
+    memset(hxb, 0, 54 * (m + 1) * sizeof(double));
+    memset(gx, 0, 6 * (m + 1) * sizeof(double));
+    memset(hbb, 0, 81 * sizeof(double));
+    memset(gb, 0, 9 * sizeof(double));
+    for (int64_t k = 0; k < m; k++) {
+        const double *A = ja + 36 * k, *B = jb + 36 * k, *C = jc + 54 * k, *r = r_dyn + 6 * k;
+        double *h0 = hd + 36 * k, *h1 = hd + 36 * (k + 1), *o = ho + 36 * k;
+        double *x0 = hxb + 54 * k, *x1 = hxb + 54 * (k + 1), *g0 = gx + 6 * k, *g1 = gx + 6 * (k + 1);
+        for (int i = 0; i < 6; i++) {
+            double sa[6] = {0}, sb[6] = {0}, sab[6] = {0}, ca[9] = {0}, cb[9] = {0}, ga = 0.0, gbv = 0.0;
+            for (int l = 0; l < 6; l++) {
+                double a = A[6 * l + i], bb = B[6 * l + i];
+                for (int j = 0; j < 6; j++) {
+                    sa[j] += a * A[6 * l + j];
+                    sb[j] += bb * B[6 * l + j];
+                    sab[j] += a * B[6 * l + j];
+                }
+                for (int j = 0; j < 9; j++) {
+                    ca[j] += a * C[9 * l + j];
+                    cb[j] += bb * C[9 * l + j];
+                }
+                ga += a * r[l];
+                gbv += bb * r[l];
+            }
+            for (int j = 0; j < 6; j++) {
+                h0[6 * i + j] += sa[j];
+                h1[6 * i + j] += sb[j];
+                o[6 * i + j] = sab[j];
+            }
+            for (int j = 0; j < 9; j++) {
+                x0[9 * i + j] += ca[j];
+                x1[9 * i + j] += cb[j];
+            }
+            g0[i] += ga;
+            g1[i] += gbv;
+        }
+        for (int l = 0; l < 6; l++) {
+            const double *c = C + 9 * l;
+            for (int i = 0; i < 9; i++) {
+                for (int j = 0; j < 9; j++) hbb[9 * i + j] += c[i] * c[j];
+                gb[i] += c[i] * r[l];
+            }
+        }
+    }
+}
+
+static PyObject *py_transition_blocks(PyObject *self, PyObject *args) {
+    long long m;
+    PyObject *o[12];
+    if (!PyArg_ParseTuple(args, "LOOOOOOOOOOOO", &m, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9], &o[10], &o[11]))
+        return NULL;
+    if (m < 1) {
+        PyErr_SetString(PyExc_ValueError, "transition_blocks: m must be at least 1");
+        return NULL;
+    }
+    static const char *names[12] = {"dt", "gyr", "acc", "r", "v", "b", "sig_dyn", "g_world", "r_dyn", "ja", "jb", "jc"};
+    Py_ssize_t cnt[12] = {m, -3 * m, -3 * m, 9 * (m + 1), 3 * (m + 1), 9, 6 * m, 3, 6 * m, 36 * m, 36 * m, 54 * m};
+    Buf b[12];
+    int k;
+    for (k = 0; k < 12; k++)
+        if (get_buf(o[k], &b[k], cnt[k], k >= 8, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 12) {
+        const double *p[8];
+        for (int i = 0; i < 8; i++) p[i] = b[i].view.buf;
+        Py_BEGIN_ALLOW_THREADS
+        transition_blocks(m, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], b[8].view.buf, b[9].view.buf,
+                          b[10].view.buf, b[11].view.buf);
+        Py_END_ALLOW_THREADS
+        Py_INCREF(Py_None);
+        res = Py_None;
+    }
+    release(b, k < 12 ? k + 1 : 12);
+    return res;
+}
+
+static PyObject *py_normal_blocks(PyObject *self, PyObject *args) {
+    long long m;
+    PyObject *o[10];
+    if (!PyArg_ParseTuple(args, "LOOOOOOOOOO", &m, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8],
+                          &o[9]))
+        return NULL;
+    if (m < 1) {
+        PyErr_SetString(PyExc_ValueError, "normal_blocks: m must be at least 1");
+        return NULL;
+    }
+    static const char *names[10] = {"ja", "jb", "jc", "r_dyn", "hd", "ho", "hxb", "hbb", "gx", "gb"};
+    Py_ssize_t cnt[10] = {36 * m, 36 * m, 54 * m, 6 * m, 36 * (m + 1), 36 * m, 54 * (m + 1), 81, 6 * (m + 1), 9};
+    Buf b[10];
+    int k;
+    for (k = 0; k < 10; k++)
+        if (get_buf(o[k], &b[k], cnt[k], k >= 4, names[k]) < 0) break;
+    PyObject *res = NULL;
+    if (k == 10) {
+        Py_BEGIN_ALLOW_THREADS
+        normal_blocks(m, b[0].view.buf, b[1].view.buf, b[2].view.buf, b[3].view.buf, b[4].view.buf, b[5].view.buf,
+                      b[6].view.buf, b[7].view.buf, b[8].view.buf, b[9].view.buf);
+        Py_END_ALLOW_THREADS
+        Py_INCREF(Py_None);
+        res = Py_None;
+    }
+    release(b, k < 10 ? k + 1 : 10);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"path_clusters", py_path_clusters, METH_VARARGS, "The smoother's most likely cluster per step from its paths."},
     {"complementary", py_complementary, METH_VARARGS, "The complementary filter's loop (see orientation.py)."},
     {"forward", py_forward, METH_VARARGS, "The climbing particle filter's forward pass (see particles.py)."},
     {"backward_paths", py_paths, METH_VARARGS, "Backward-simulation trajectories of eq 17's transition density."},
+    {"transition_blocks", py_transition_blocks, METH_VARARGS,
+     "transition_blocks(m, dt, gyr, acc, r, v, b, sig_dyn, g_world, r_dyn, ja, jb, jc): the dynamic model's\n"
+     "whitened residuals and Jacobian blocks of transition.linearize, written into the last four (float64)."},
+    {"normal_blocks", py_normal_blocks, METH_VARARGS,
+     "normal_blocks(m, ja, jb, jc, r_dyn, hd, ho, hxb, hbb, gx, gb): the dynamic model's part of\n"
+     "transition.normal_equations (J^T J blocks and J^T r), written into the last six (float64)."},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "_climbing_c", "pf-holds' loops in C: particle filter, backward simulation, complementary filter.",
+    PyModuleDef_HEAD_INIT, "_climbing_c", "pf-holds' loops in C: particle filter, backward simulation, complementary filter, transition blocks.",
     -1, methods,
 };
 

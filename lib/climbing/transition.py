@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sportfusion.climbing import _so3
+from sportfusion.climbing._native import native
 from sportfusion.climbing.orientation import complementary_filter
 from sportfusion.core.errors import InputError
 from sportfusion.core.stats import median
@@ -184,7 +185,35 @@ class Linearization:
 
 
 def linearize(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
-    """Whitened residuals of eq 12 and (optionally) their Jacobian blocks at ``st``."""
+    """Whitened residuals of eq 12 and (optionally) their Jacobian blocks at ``st``.
+
+    Where the C extension is built, the dynamic model's residuals and blocks come from it in one pass over
+    the samples (:func:`_linearize_numpy` is the reference, ``tests/test_climbing_native.py``).
+    """
+    ext = native()
+    if ext is None or prob.n < 2:
+        return _linearize_numpy(prob, st, jacobian)
+    p = prob.params
+    m = prob.n - 1
+    r_dyn, ja, jb, jc = np.empty((m, NX)), np.empty((m, NX, NX)), np.empty((m, NX, NX)), np.empty((m, NX, NB))
+    c64 = np.ascontiguousarray
+    ext.transition_blocks(
+        m, c64(prob.dt), c64(prob.gyr), c64(prob.acc), c64(st.r), c64(st.v), c64(st.b), c64(prob.sig_dyn),
+        c64(prob.g_world, dtype=np.float64), r_dyn, ja, jb, jc,
+    )  # fmt: skip
+    bm = st.b[6:]
+    m_pred = np.einsum("nji,j->ni", st.r, prob.m_world)
+    r_mag = np.where(prob.mag_ok[:, None], (m_pred + bm - np.nan_to_num(prob.mag)) / prob.sig_mag, 0.0)
+    r_zupt = np.where(prob.grip[:, None], st.v / p.sigma_zupt, 0.0)
+    lin = Linearization(r_dyn, r_mag, r_zupt, st.b / prob.prior_sig)
+    if jacobian:
+        lin.ja, lin.jb, lin.jc = ja, jb, jc
+        lin.jm = np.where(prob.mag_ok[:, None, None], _so3.hat(m_pred) / prob.sig_mag, 0.0)
+    return lin
+
+
+def _linearize_numpy(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
+    """:func:`linearize` in numpy (the reference of the C path)."""
     p = prob.params
     ba, bg, bm = st.b[:3], st.b[3:6], st.b[6:]
     dt = prob.dt[:, None]
@@ -284,24 +313,32 @@ class Normal:
 
 
 def normal_equations(prob: Problem, lin: Linearization) -> Normal:
-    """``J^T J`` and ``J^T r`` of the whitened problem, assembled block by block."""
+    """``J^T J`` and ``J^T r`` of the whitened problem, assembled block by block (the dynamic model's blocks
+    in C where the extension is built)."""
     n = prob.n
     ja, jb, jc, r = lin.ja, lin.jb, lin.jc, lin.r_dyn
-    at = np.swapaxes(ja, 1, 2)
-    bt = np.swapaxes(jb, 1, 2)
-    hd = np.zeros((n, 6, 6))
-    hd[:-1] += at @ ja
-    hd[1:] += bt @ jb
-    ho = at @ jb
-    hxb = np.zeros((n, 6, NB))
-    hxb[:-1] += at @ jc
-    hxb[1:] += bt @ jc
-    jc2 = jc.reshape(-1, NB)
-    hbb = jc2.T @ jc2  # (BLAS syrk)
-    gx = np.zeros((n, 6))
-    gx[:-1] += np.einsum("kri,kr->ki", ja, r)
-    gx[1:] += np.einsum("kri,kr->ki", jb, r)
-    gb = jc2.T @ r.ravel()
+    ext = native()
+    if ext is not None and n >= 2:
+        hd, ho, hxb = np.empty((n, NX, NX)), np.empty((n - 1, NX, NX)), np.empty((n, NX, NB))
+        hbb, gx, gb = np.empty((NB, NB)), np.empty((n, NX)), np.empty(NB)
+        c64 = np.ascontiguousarray
+        ext.normal_blocks(n - 1, c64(ja), c64(jb), c64(jc), c64(r), hd, ho, hxb, hbb, gx, gb)
+    else:
+        at = np.swapaxes(ja, 1, 2)
+        bt = np.swapaxes(jb, 1, 2)
+        hd = np.zeros((n, 6, 6))
+        hd[:-1] += at @ ja
+        hd[1:] += bt @ jb
+        ho = at @ jb
+        hxb = np.zeros((n, 6, NB))
+        hxb[:-1] += at @ jc
+        hxb[1:] += bt @ jc
+        jc2 = jc.reshape(-1, NB)
+        hbb = jc2.T @ jc2  # (BLAS syrk)
+        gx = np.zeros((n, 6))
+        gx[:-1] += np.einsum("kri,kr->ki", ja, r)
+        gx[1:] += np.einsum("kri,kr->ki", jb, r)
+        gb = jc2.T @ r.ravel()
     # magnetometer
     s = 1.0 / prob.sig_mag
     jmt = np.swapaxes(lin.jm, 1, 2)
