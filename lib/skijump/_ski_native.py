@@ -39,9 +39,10 @@ NRES = sum(w for _, w in RESIDUALS)
 NPRED = 10 * N + 55
 #: Longest run [steps] whose predictions are stored for the backward pass (2.2 KB/step of scratch).  On a
 #: multi-jump day the scratch is reused from jump to jump and the backward pass skips forming them again
-#: (23 jumps, 59k steps: smoothing 0.76 -> 0.65 s CPU); on one segment the scratch's fresh pages cost more
-#: than that saves (one 60k-step segment: 0.51 -> 0.67 s), so smooth_inputs keeps them only where the
-#: longest segment is at most a third of the session, and at most this long (36 MB).
+#: (23 jumps, 59k steps: the loop 8.65 -> 7.93 us/step); on one long segment the scratch is fresh memory
+#: written and read once and nothing is gained (one 60k-step segment: 0.516 vs 0.517 s, +130 MB), so
+#: smooth_inputs keeps them only where the longest segment is at most a third of the session, and at most
+#: this long (36 MB).
 PRED_MAX_STEPS = 16384
 
 

@@ -432,8 +432,8 @@ def smooth_inputs(
             work = (np.empty((n_max, mdl.N)), np.empty((n_max, fast.NP)))
             if n_max <= fast.PRED_MAX_STEPS and 3 * n_max <= n_all:
                 # many short segments (a multi-jump day): the forward pass keeps its predictions for the backward
-                # pass in a scratch that every run reuses (on a single segment its fresh pages cost more than
-                # that saves: _ski_native.PRED_MAX_STEPS)
+                # pass in a scratch that every run reuses (on a single long segment it gains nothing for its
+                # memory: _ski_native.PRED_MAX_STEPS)
                 work += (np.empty((n_max, fast.NPRED)),)
     for a, b in segments(inp.t, cfg.max_gap):
         lat.append(None)
