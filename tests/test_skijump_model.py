@@ -162,3 +162,23 @@ def test_session_inputs_windows_on_fixture():
     # the reference field is the WMM at the site (about 48 uT total in southern Germany)
     assert 45 < np.linalg.norm(inp.m_o) < 52
     assert inp.m_o[2] > 0  # dip downward in the northern hemisphere
+
+
+def test_row_samples_onto_steps_when_every_row_is_a_step_and_when_not() -> None:
+    """_to_steps: with every row an IMU step, row k is step k (its fast path); with rows between the steps
+    (a GNSS row without IMU), each sample goes to the nearest step within half a step, the rest is NaN."""
+    from sportfusion.skijump.smoother_inputs import _to_steps
+
+    rng = np.random.default_rng(2)
+    t = np.cumsum(rng.uniform(0.009, 0.011, 500))
+    v = rng.normal(size=(500, 3))
+    ok = rng.uniform(size=500) < 0.2
+    want = np.full_like(v, np.nan)
+    want[ok] = v[ok]
+    np.testing.assert_array_equal(_to_steps(t, ok, v, t), want)
+    # the same samples 1 ms late, on rows of their own between the steps: the general path
+    rows = np.sort(np.concatenate((t, t[ok] + 0.001)))
+    vals = np.full((rows.size, 3), np.nan)
+    mine = np.isin(rows, t[ok] + 0.001)
+    vals[mine] = v[ok]
+    np.testing.assert_array_equal(_to_steps(rows, mine, vals, t), want)

@@ -229,6 +229,8 @@ def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
 
 def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Put row samples onto the nearest IMU step (within half a step); (n, k) with NaN elsewhere."""
+    if t.size == t_rows.size:  # every row is an IMU step (t is t_rows, strictly increasing): row k is step k
+        return np.where(rows_ok[:, None], values, np.nan)
     out = np.full((t.size, values.shape[1]), np.nan)
     ts, vs = t_rows[rows_ok], values[rows_ok]
     if ts.size == 0:
