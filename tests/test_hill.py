@@ -234,3 +234,19 @@ def test_certificate_accepts_community_type_codes() -> None:
     c = Certificate.from_mapping({**OBERSTDORF, "type": 2})
     assert c.type == "ICR2008"
     assert "r2L" in c.as_dict() and "gates" not in c.as_dict()
+
+
+def test_gauss_legendre_rule_is_numpys() -> None:
+    """The 32-point rule written out in hill.py is numpy's leggauss(32) (to rounding, whatever the numpy
+    release) and integrates polynomials up to degree 63 exactly."""
+    from numpy.polynomial.legendre import leggauss
+
+    from sportfusion.skijump.hill import _gauss_legendre
+
+    x, w = _gauss_legendre()
+    xr, wr = leggauss(32)
+    np.testing.assert_allclose(x, xr, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(w, wr, rtol=0, atol=1e-15)
+    for deg in (0, 2, 30, 62):
+        assert np.sum(w * x**deg) == pytest.approx(2.0 / (deg + 1), rel=1e-13)
+    assert abs(np.sum(w * x**63)) < 1e-15

@@ -141,3 +141,14 @@ def test_shipped_files_reproduce_from_the_converter() -> None:
         assert name in shipped
         assert (HILL_DIR / f"{name}.toml").read_text() == text, name
     assert len(mod.SELECTION) == len(shipped)
+
+
+def test_shipped_hills_found_without_the_folder_beside_the_package(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The hills are read from the folder beside the package; where there is none (another loader), through
+    importlib.resources: the same names either way."""
+    from sportfusion.skijump import hillfile
+
+    names = shipped_hills()
+    monkeypatch.setattr(hillfile, "__file__", "/nonexistent/sportfusion/skijump/hillfile.py")
+    assert shipped_hills() == names
+    assert load_hill(names[0]).name

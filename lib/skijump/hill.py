@@ -213,13 +213,28 @@ def _circle_below(name: str, x0: float, x1: float, c: np.ndarray, r: float) -> S
     return Segment(name, x0, x1, f, length)
 
 
+# 32-point Gauss-Legendre rule on [-1, 1], the positive half (the rule is symmetric): the values
+# numpy.polynomial.legendre.leggauss(32) returns, written out so that building a hill does not import
+# numpy.polynomial (~10 ms per command); tests/test_hill.py compares them with leggauss
+_GL_NODES = (
+    0.048307665687738324, 0.1444719615827965, 0.23928736225213706, 0.33186860228212767,
+    0.42135127613063533, 0.5068999089322294, 0.5877157572407623, 0.6630442669302152,
+    0.7321821187402897, 0.7944837959679424, 0.84936761373257, 0.8963211557660521,
+    0.9349060759377397, 0.9647622555875064, 0.9856115115452684, 0.9972638618494816,
+)  # fmt: skip
+_GL_WEIGHTS = (
+    0.09654008851472766, 0.09563872007927471, 0.09384439908080451, 0.09117387869576378,
+    0.08765209300440378, 0.08331192422694671, 0.07819389578707023, 0.07234579410884834,
+    0.06582222277636168, 0.058684093478535565, 0.05099805926237609, 0.042835898022226836,
+    0.034273862913021765, 0.025392065309262024, 0.016274394730905743, 0.007018610009470506,
+)  # fmt: skip
+
+
 @functools.cache
 def _gauss_legendre() -> tuple[np.ndarray, np.ndarray]:
-    """32-point Gauss-Legendre nodes and weights on [-1, 1] (numpy.polynomial imported on first use: a
-    command that never takes a curve length does not pay its import)."""
-    from numpy.polynomial.legendre import leggauss
-
-    return leggauss(32)
+    """32-point Gauss-Legendre nodes (ascending) and weights on [-1, 1]."""
+    x, w = np.array(_GL_NODES), np.array(_GL_WEIGHTS)
+    return np.concatenate((-x[::-1], x)), np.concatenate((w[::-1], w))
 
 
 def _quad_length(dydx: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
