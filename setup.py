@@ -14,15 +14,18 @@ that path).
 from setuptools import Extension, setup
 
 BUFFERS = "lib/core/_buffers.h"  # the buffer helpers both 8-byte-item extensions include
+QUAT = "lib/core/_quat.h"  # the quaternion -> matrix formula both include
 
 setup(
     ext_modules=[
         Extension("sportfusion.estimators._banded_c", sources=["lib/estimators/_banded_c.c"], optional=True),
-        Extension("sportfusion.skijump._ski_c", sources=["lib/skijump/_ski_c.c"], depends=[BUFFERS], optional=True),
+        Extension(
+            "sportfusion.skijump._ski_c", sources=["lib/skijump/_ski_c.c"], depends=[BUFFERS, QUAT], optional=True
+        ),
         Extension(
             "sportfusion.climbing._climbing_c",
             sources=["lib/climbing/_climbing_c.c"],
-            depends=[BUFFERS],
+            depends=[BUFFERS, QUAT],
             optional=True,
         ),
     ]

@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "../core/_buffers.h"
+#include "../core/_quat.h"
 
 /* indices of systematic resampling (sportfusion.estimators.particles.systematic_resample) of the weights
  * exp(lw[idx[i]] - top), i < size, normalised; count draws written to out (indices into idx) */
@@ -608,16 +609,10 @@ static void so3_exp(const double *phi, double R[3][3]) {
     double k = th < 1e-4 ? 0.5 - th * th / 48.0 : sin(0.5 * th) / th;
     double q0 = cos(0.5 * th), q1 = k * phi[0], q2 = k * phi[1], q3 = k * phi[2];
     double nq = sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3);
-    q0 /= nq, q1 /= nq, q2 /= nq, q3 /= nq;
-    R[0][0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3; /* R(q) = M_BO(q)^T */
-    R[1][0] = 2 * (q1 * q2 + q0 * q3);
-    R[2][0] = 2 * (q1 * q3 - q0 * q2);
-    R[0][1] = 2 * (q1 * q2 - q0 * q3);
-    R[1][1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3;
-    R[2][1] = 2 * (q2 * q3 + q0 * q1);
-    R[0][2] = 2 * (q0 * q2 + q1 * q3);
-    R[1][2] = 2 * (q2 * q3 - q0 * q1);
-    R[2][2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3;
+    double M[3][3];
+    quat_mbo(q0 / nq, q1 / nq, q2 / nq, q3 / nq, M);
+    for (int i = 0; i < 3; i++) /* R(q) = M_BO(q)^T */
+        for (int j = 0; j < 3; j++) R[i][j] = M[j][i];
 }
 
 static void so3_log(double R[3][3], double *out) {

@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "../core/_buffers.h"
+#include "../core/_quat.h"
 
 #define N 22
 #define NP 253
@@ -57,17 +58,13 @@
 static const double ZEROS[N];
 #define ZERO(a) memcpy(a, ZEROS, sizeof(a))
 
+/* a function of its own, compiled for the baseline target (never fused into the AVX2/FMA clones): the results
+   stay those of the previous builds to the last bit */
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
 static void mbo(const double *q, double M[3][3]) {
-    double q0 = q[0], q1 = q[1], q2 = q[2], q3 = q[3];
-    M[0][0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3;
-    M[0][1] = 2 * (q1 * q2 + q0 * q3);
-    M[0][2] = 2 * (q1 * q3 - q0 * q2);
-    M[1][0] = 2 * (q1 * q2 - q0 * q3);
-    M[1][1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3;
-    M[1][2] = 2 * (q2 * q3 + q0 * q1);
-    M[2][0] = 2 * (q0 * q2 + q1 * q3);
-    M[2][1] = 2 * (q2 * q3 - q0 * q1);
-    M[2][2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3;
+    quat_mbo(q[0], q[1], q[2], q[3], M);
 }
 
 static void dmdq(const double *q, double D[4][3][3]) {
@@ -209,6 +206,21 @@ HOT static void phi_qd(const double *x, const double *u, double dt, double g0, c
     }
 }
 
+/* the prediction's blocks outside the kinematic one: rows/columns 0-9 x 10-21 are T's (Phi is the identity on the
+   parameters, which have no process noise), the parameter block is P's */
+static inline void outer_blocks(double T[10][N], double P[N][N], double out[N][N]) {
+    for (int i = 0; i < 10; i++)
+        for (int j = 10; j < N; j++) {
+            out[i][j] = T[i][j];
+            out[j][i] = T[i][j];
+        }
+    for (int i = 10; i < N; i++)
+        for (int j = i; j < N; j++) {
+            out[i][j] = P[i][j];
+            out[j][i] = P[i][j];
+        }
+}
+
 /* out = Phi P Phi^T + Qd with Phi = [[Phi_top], [0 I]]; T = Phi_top P (10 x 22) is returned for the
    backward pass.  Phi_top is the identity in columns 0-2 and zero in columns 16-21 (phi_qd), so the products
    run over columns 3-15 and the identity; every element sums its nonzero terms in the order of the dense
@@ -239,16 +251,8 @@ HOT static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10]
             out[i][j] = s[j];
             out[j][i] = s[j];
         }
-        for (int j = 10; j < N; j++) {
-            out[i][j] = T[i][j];
-            out[j][i] = T[i][j];
-        }
     }
-    for (int i = 10; i < N; i++)
-        for (int j = i; j < N; j++) {
-            out[i][j] = P[i][j];
-            out[j][i] = P[i][j];
-        }
+    outer_blocks(T, P, out);
 }
 
 /* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite.  Reads and
@@ -551,27 +555,18 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         if (k >= 2) /* the step after next's filtered covariance (2 KB): read from memory while this step computes */
             for (int i = 0; i < NP; i += 8) PREFETCH(Pbuf + NP * (k - 2) + i);
         unpack(Pbuf + NP * k, Pf);
-        if (pred) { /* the forward pass's T and kinematic block; the rest of P_k+1|k is T's and Pf's (predict_cov) */
+        if (pred) { /* the forward pass's T and kinematic block; the rest of P_k+1|k is T's and Pf's (outer_blocks) */
             const double *o = pred + NT * k;
             if (k >= 1)
                 for (int i = 0; i < NT; i += 8) PREFETCH(o - NT + i);
             memcpy(T, o, sizeof(T));
             o += 10 * N;
-            for (int i = 0; i < 10; i++) {
+            for (int i = 0; i < 10; i++)
                 for (int j = i; j < 10; j++) {
                     Pp[i][j] = *o;
                     Pp[j][i] = *o++;
                 }
-                for (int j = 10; j < N; j++) {
-                    Pp[i][j] = T[i][j];
-                    Pp[j][i] = T[i][j];
-                }
-            }
-            for (int i = 10; i < N; i++)
-                for (int j = i; j < N; j++) {
-                    Pp[i][j] = Pf[i][j];
-                    Pp[j][i] = Pf[i][j];
-                }
+            outer_blocks(T, Pf, Pp);
         } else {
             double dt = t[k + 1] - t[k];
             phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
