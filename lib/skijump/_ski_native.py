@@ -89,8 +89,8 @@ def ski_ekf_rts(
     arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would have their pages
     zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
     returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of :data:`NPRED`)
-    keeps each step's prediction from the forward pass for the backward pass (same results, to the bit).  Raises RuntimeError when the extension is not built (call
-    :func:`native` first).
+    keeps each step's prediction from the forward pass for the backward pass (same results, to the bit).
+    Raises RuntimeError when the extension is not built (call :func:`native` first).
     """
     mod = native()
     if mod is None:
