@@ -72,8 +72,8 @@ def run(argv: list[str], stdin: Path | None = None, stdout: Path | None = None) 
 
 
 def best(argv: list[str], repeat: int = 3, **kw: Path | None) -> tuple[float, float, int]:
-    res = [run(argv, **kw) for _ in range(repeat)]
-    return min(r[0] for r in res), min(r[1] for r in res), min(r[2] for r in res)
+    """(min CPU s, min wall s, min peak RSS bytes) over ``repeat`` runs."""
+    return best_and_median(argv, repeat, **kw)[:3]
 
 
 #: runs of the rts-smooth and pf-holds cases: on a shared machine identical runs of a ~1 s command spread by

@@ -193,7 +193,6 @@ def linearize(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
     ext = native()
     if ext is None or prob.n < 2:
         return _linearize_numpy(prob, st, jacobian)
-    p = prob.params
     m = prob.n - 1
     r_dyn, ja, jb, jc = np.empty((m, NX)), np.empty((m, NX, NX)), np.empty((m, NX, NX)), np.empty((m, NX, NB))
     c64 = np.ascontiguousarray
@@ -201,21 +200,27 @@ def linearize(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
         m, c64(prob.dt), c64(prob.gyr), c64(prob.acc), c64(st.r), c64(st.v), c64(st.b), c64(prob.sig_dyn),
         c64(prob.g_world, dtype=np.float64), r_dyn, ja, jb, jc,
     )  # fmt: skip
-    bm = st.b[6:]
-    m_pred = np.einsum("nji,j->ni", st.r, prob.m_world)
-    r_mag = np.where(prob.mag_ok[:, None], (m_pred + bm - np.nan_to_num(prob.mag)) / prob.sig_mag, 0.0)
-    r_zupt = np.where(prob.grip[:, None], st.v / p.sigma_zupt, 0.0)
-    lin = Linearization(r_dyn, r_mag, r_zupt, st.b / prob.prior_sig)
+    lin = _with_sample_terms(prob, st, r_dyn, jacobian)
     if jacobian:
         lin.ja, lin.jb, lin.jc = ja, jb, jc
+    return lin
+
+
+def _with_sample_terms(prob: Problem, st: State, r_dyn: np.ndarray, jacobian: bool) -> Linearization:
+    """The linearisation with the per-sample terms both paths form in numpy: the magnetometer (and its
+    Jacobian ``jm`` with ``jacobian``), zero velocity and the bias priors, beside the dynamic model's ``r_dyn``."""
+    m_pred = np.einsum("nji,j->ni", st.r, prob.m_world)
+    r_mag = np.where(prob.mag_ok[:, None], (m_pred + st.b[6:] - np.nan_to_num(prob.mag)) / prob.sig_mag, 0.0)
+    r_zupt = np.where(prob.grip[:, None], st.v / prob.params.sigma_zupt, 0.0)
+    lin = Linearization(r_dyn, r_mag, r_zupt, st.b / prob.prior_sig)
+    if jacobian:
         lin.jm = np.where(prob.mag_ok[:, None, None], _so3.hat(m_pred) / prob.sig_mag, 0.0)
     return lin
 
 
 def _linearize_numpy(prob: Problem, st: State, jacobian: bool = True) -> Linearization:
     """:func:`linearize` in numpy (the reference of the C path)."""
-    p = prob.params
-    ba, bg, bm = st.b[:3], st.b[3:6], st.b[6:]
+    ba, bg = st.b[:3], st.b[3:6]
     dt = prob.dt[:, None]
     phi = (prob.gyr[:-1] - bg) * dt
     e = _so3.exp(phi)
@@ -226,11 +231,7 @@ def _linearize_numpy(prob: Problem, st: State, jacobian: bool = True) -> Lineari
     rf = np.einsum("nij,nj->ni", rk, f)
     r_vel = st.v[:-1] + dt * (rf + prob.g_world) - st.v[1:]
     r_dyn = np.hstack([r_rot, r_vel]) / prob.sig_dyn
-    m_pred = np.einsum("nji,j->ni", st.r, prob.m_world)
-    r_mag = np.where(prob.mag_ok[:, None], (m_pred + bm - np.nan_to_num(prob.mag)) / prob.sig_mag, 0.0)
-    r_zupt = np.where(prob.grip[:, None], st.v / p.sigma_zupt, 0.0)
-    r_prior = st.b / prob.prior_sig
-    lin = Linearization(r_dyn, r_mag, r_zupt, r_prior)
+    lin = _with_sample_terms(prob, st, r_dyn, jacobian)
     if not jacobian:
         return lin
     m = prob.n - 1
@@ -247,7 +248,6 @@ def _linearize_numpy(prob: Problem, st: State, jacobian: bool = True) -> Lineari
     jc[:, 3:, 0:3] = -dt[:, :, None] * rk
     w = 1.0 / prob.sig_dyn[:, :, None]
     lin.ja, lin.jb, lin.jc = ja * w, jb * w, jc * w
-    lin.jm = np.where(prob.mag_ok[:, None, None], _so3.hat(m_pred) / prob.sig_mag, 0.0)
     return lin
 
 
