@@ -120,3 +120,24 @@ def test_written_file_has_the_usual_permissions(tmp_path):
     finally:
         os.umask(old)
     assert stat.S_IMODE((tmp_path / "out.parquet").stat().st_mode) == 0o644
+
+
+def test_float_columns_is_the_stack_of_floats():
+    """schema.float_columns: numeric columns side by side, nulls as NaN -- what stacking schema.floats gives --
+    over several chunks, float32, int and nullable int columns."""
+    from sportfusion.core import schema
+
+    t = pa.table(
+        {
+            "a": pa.chunked_array([[1.0, None], [3.0, 4.5]]),
+            "b": pa.array([1.5, 2.5, None, 4.0], pa.float32()),
+            "c": pa.array([1, 2, 3, 4], pa.int16()),
+            "d": pa.array([1, None, 3, 4], pa.int32()),
+        }
+    )
+    names = ("a", "b", "c", "d")
+    got = schema.float_columns(t, names)
+    want = np.stack([schema.floats(t, n) for n in names], axis=-1)
+    assert got.dtype == np.float64 and got.flags.writeable
+    np.testing.assert_array_equal(got, want)
+    assert np.isnan(got[1, 0]) and np.isnan(got[2, 1]) and np.isnan(got[1, 3])

@@ -153,3 +153,21 @@ def test_interval_mean_rates_exact_for_a_linear_rate():
     mid = 0.5 * (t[1:] + t[:-1])
     np.testing.assert_allclose(got[1:], np.outer(mid, [1.0, -2.0, 0.5]) + [0.1, 0.0, -0.3], atol=1e-15)
     np.testing.assert_array_equal(got[0], w_at[0])
+
+
+def test_euler_of_a_scaled_matrix_and_ned_to_local_into_columns():
+    """euler_from_dcm(scale=|q|^2) on the matrix of a quaternion that is not unit gives the unit quaternion's
+    angles; ned_to_local(out=) writes the same numbers into (3, n) rows as it returns without out."""
+    from sportfusion.skijump.kinematics import m_bo
+
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(200, 4)) * rng.uniform(0.5, 2.0, size=(200, 1))
+    n2 = (q * q).sum(axis=1)
+    got = R.euler_from_dcm(m_bo(q), scale=n2)
+    want = R.euler_from_quat(q / np.sqrt(n2)[:, None])
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_allclose(g, w, rtol=0, atol=1e-12)
+    v = rng.normal(size=(200, 3))
+    rows = np.empty((3, 200))
+    R.ned_to_local(v, 37.0, out=rows.T)
+    np.testing.assert_allclose(rows.T, R.ned_to_local(v, 37.0), rtol=0, atol=1e-15)

@@ -367,6 +367,38 @@ def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyP
     assert seen == [2]
 
 
+@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_c_loop_writes_states_and_std_column_by_column() -> None:
+    """The C loop's smoothed states and std rows written into a session's column-major arrays (a segment at an
+    offset) are its row-major results, to the bit; each column of them is contiguous; other layouts are refused."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
+
+    tab, meta = sfio.read_table(FIX + "session.parquet")
+    hill = load_hill(HILL)
+    cfg = SmootherConfig(passes=1)
+    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
+    x0, P0 = R.initial_state(inp, cfg)
+    n = inp.t.size
+    rows = (np.empty((n, 22)), np.empty((n, 22)), np.empty((n, _ski_native.NRES)), np.empty((n, _ski_native.NSTD)))
+    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=rows)
+    xs, std = _ski_native.column_outputs(n + 7)
+    assert xs[:, 3].flags.c_contiguous and std[:, 3].flags.c_contiguous
+    xs.T[:] = np.nan
+    cols = (np.empty((n, 22)), xs[5 : 5 + n], np.empty((n, _ski_native.NRES)), std[5 : 5 + n])
+    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=cols)
+    np.testing.assert_array_equal(a[1], b[1])
+    np.testing.assert_array_equal(a[4], b[4])
+    np.testing.assert_array_equal(b[1], xs[5 : 5 + n])
+    assert np.isnan(xs[:5]).all() and np.isnan(xs[5 + n :]).all()  # nothing written outside the segment
+    for k in a[3]:
+        np.testing.assert_array_equal(a[3][k], b[3][k], err_msg=k)
+    strided = (np.empty((n, 22)), np.empty((n, 44))[:, ::2], np.empty((n, _ski_native.NRES)), std[5 : 5 + n])
+    with pytest.raises(ValueError, match="x_smooth must be"):
+        R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=strided)
+
+
 @pytest.mark.slow
 def test_relinearisation_passes_recover_a_bad_start():
     """Seed 0 draws a gyro bias of 0.11 rad/s: one EKF pass locks onto a wrong heading, the passes do not."""

@@ -165,14 +165,17 @@ def quat_from_dcm(m: np.ndarray) -> np.ndarray:
     return quat_canonical(quat_normalize(q))
 
 
-def euler_from_dcm(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def euler_from_dcm(m: np.ndarray, scale: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(roll, pitch, yaw) [rad] from ``M_BO`` (z-y-x; eqs 54-56 with ``atan2``).
 
-    Roll and yaw are in (-pi, pi], pitch in [-pi/2, pi/2].
+    Roll and yaw are in (-pi, pi], pitch in [-pi/2, pi/2].  ``scale``: the matrix is ``scale`` times a
+    rotation, optional (``|q|^2`` for the matrix of a quaternion that is not unit: roll and yaw are ratios of its
+    entries, pitch's sine is ``-m02 / scale``).
     """
     m = np.asarray(m, dtype=float)
     roll = np.arctan2(m[..., 1, 2], m[..., 2, 2])
-    pitch = np.arcsin(np.clip(-m[..., 0, 2], -1.0, 1.0))
+    sp = -m[..., 0, 2] if scale is None else -m[..., 0, 2] / scale
+    pitch = np.arcsin(np.clip(sp, -1.0, 1.0))
     yaw = np.arctan2(m[..., 0, 1], m[..., 0, 0])
     return roll, pitch, yaw
 
@@ -337,6 +340,9 @@ def local_to_ned(v_local: np.ndarray, azimuth_deg: float) -> np.ndarray:
     return np.asarray(v_local, dtype=float) @ _rot_z(azimuth_deg).T
 
 
-def ned_to_local(v_ned: np.ndarray, azimuth_deg: float) -> np.ndarray:
-    """NED vector(s) ``(..., 3)`` -> local frame whose x axis points to ``azimuth_deg`` (inverse of :func:`local_to_ned`)."""
-    return np.asarray(v_ned, dtype=float) @ _rot_z(azimuth_deg)
+def ned_to_local(v_ned: np.ndarray, azimuth_deg: float, out: np.ndarray | None = None) -> np.ndarray:
+    """NED vector(s) ``(..., 3)`` -> local frame whose x axis points to ``azimuth_deg`` (inverse of :func:`local_to_ned`).
+
+    ``out``: an array of the result's shape (any strides, e.g. the ``.T`` of a (3, n) array) to write into.
+    """
+    return np.matmul(np.asarray(v_ned, dtype=float), _rot_z(azimuth_deg), out=out)

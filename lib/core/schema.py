@@ -347,6 +347,25 @@ def floats(table: pa.Table, name: str) -> np.ndarray:
     return np.asarray(col.to_numpy(), dtype=np.float64)
 
 
+def float_columns(table: pa.Table, names: tuple[str, ...] | list[str]) -> np.ndarray:
+    """Numeric columns side by side as a float64 (rows, len(names)) numpy array (writable), nulls as NaN.
+
+    The same values as stacking :func:`floats` of each column, written once into the result (no
+    per-column copy, no stack: on 60k rows each copy is half a megabyte of fresh pages).
+    """
+    out = np.empty((table.num_rows, len(names)))
+    for i, name in enumerate(names):
+        col = table.column(name)
+        if pa.types.is_floating(col.type) or (pa.types.is_integer(col.type) and col.null_count == 0):
+            vals, valid = float_values(col)
+            out[:, i] = vals
+            if valid is not None:
+                out[~valid, i] = np.nan
+        else:
+            out[:, i] = floats(table, name)
+    return out
+
+
 def flags(table: pa.Table, name: str) -> np.ndarray:
     """A boolean column as a numpy bool array (a copy), nulls as False, without pyarrow.compute.
 

@@ -136,7 +136,7 @@ def match_rows(t_est: np.ndarray, t_true: np.ndarray, tol: float = 1e-6) -> tupl
 def _quat(table: pa.Table, prefix: str) -> np.ndarray | None:
     names = [f"{prefix}q{i}" for i in range(4)]
     if all(n in table.column_names for n in names):
-        return np.stack([schema.floats(table, n) for n in names], axis=-1)
+        return schema.float_columns(table, names)
     names = [f"{prefix}{a}" for a in ("roll", "pitch", "yaw")]
     if all(n in table.column_names for n in names):
         r, p, y = (schema.floats(table, n) for n in names)
@@ -147,10 +147,10 @@ def _quat(table: pa.Table, prefix: str) -> np.ndarray | None:
 def _truth_velocity_ned(truth: pa.Table, azimuth: float) -> np.ndarray | None:
     names = ("true_vel_n", "true_vel_e", "true_vel_d")
     if all(n in truth.column_names for n in names):
-        return np.stack([schema.floats(truth, n) for n in names], axis=-1)
+        return schema.float_columns(truth, names)
     names = ("true_vx", "true_vy", "true_vz")
     if all(n in truth.column_names for n in names):
-        return rotations.local_to_ned(np.stack([schema.floats(truth, n) for n in names], axis=-1), azimuth)
+        return rotations.local_to_ned(schema.float_columns(truth, names), azimuth)
     return None
 
 
@@ -219,7 +219,7 @@ def errors(
     else:
         names = ("vx", "vy", "vz")
         v_est = (
-            rotations.local_to_ned(np.stack([schema.floats(est, n) for n in names], axis=-1), azimuth_deg)
+            rotations.local_to_ned(schema.float_columns(est, names), azimuth_deg)
             if all(n in est.column_names for n in names)
             else None
         )

@@ -279,7 +279,7 @@ def detect_gate_table(
         )
     schema.require_columns(table, ("gyr_z",), "the turn side of gate crossings")
     t = schema.floats(table, "t")
-    mag = np.stack([schema.floats(table, c) for c in ("mag_x", "mag_y", "mag_z")], axis=-1)
+    mag = schema.float_columns(table, ("mag_x", "mag_y", "mag_z"))
     ok = np.isfinite(mag).all(axis=1)
     if ok.sum() < 5:
         raise InputError("no magnetometer: columns mag_x, mag_y, mag_z hold fewer than 5 samples")

@@ -181,7 +181,7 @@ def mag_disturbance(
     """
     rng = np.random.default_rng(seed)
     t = schema.floats(table, "t")
-    m = np.stack([schema.floats(table, c) for c in MAG], axis=-1)
+    m = schema.float_columns(table, MAG)
     ok = np.isfinite(m).all(axis=1)
     norm = float(median(np.linalg.norm(m[ok], axis=1))) if ok.any() else 1.0
     d = rng.normal(size=3)
@@ -202,6 +202,6 @@ def duplicate_times(table: pa.Table, n: int = 3, seed: int = 0) -> pa.Table:
 
 def clipped_fraction(table: pa.Table, names: tuple[str, ...], limit: float) -> float:
     """Share of the samples of columns ``names`` at or beyond ``+-limit`` (a check for tests)."""
-    v = np.stack([schema.floats(table, c) for c in names], axis=-1)
+    v = schema.float_columns(table, names)
     ok = np.isfinite(v)
     return float((np.abs(v[ok]) >= limit).mean()) if ok.any() else 0.0

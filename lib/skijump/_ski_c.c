@@ -25,7 +25,7 @@
 #define N 22
 #define NP 253
 #define NSTD 28
-#define NPAR 23
+#define NPAR 27
 #define NRES 16
 /* a step's stored prediction (pred): T = Phi_top P (10 x N) and the upper triangle of P_k+1|k's kinematic block */
 #define NT (10 * N + 55)
@@ -366,6 +366,15 @@ static void unpack(const double *p, double P[N][N]) {
         }
 }
 
+/* row k of an (n, m) output: row-major (ld 0: m items at base + m k), or column-major (item i at base[i ld + k]:
+   the rows of a segment inside a session's (m, ld) array, so that every column is contiguous for the table) */
+static inline void put_row(double *base, Py_ssize_t ld, Py_ssize_t k, const double *v, int m) {
+    if (ld)
+        for (int i = 0; i < m; i++) base[i * ld + k] = v[i];
+    else
+        memcpy(base + (Py_ssize_t)m * k, v, sizeof(double) * m);
+}
+
 static double sqrt0(double v) { return v >= 0.0 ? sqrt(v) : (v < 0.0 ? 0.0 : v); }
 
 /* standard deviations at one step: the states' (22), the hill-frame velocity's (3), roll/pitch/yaw's (3) */
@@ -429,6 +438,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
     int keep = smooth || par[21] != 0.0;
     int write_ps = par[22] != 0.0; /* the smoothed covariances written back over the filtered ones */
+    Py_ssize_t ldx = (Py_ssize_t)par[23], lds = (Py_ssize_t)par[25]; /* x_s, std: 0 row-major, else column-major */
     double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
     double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
     double x[N], xn[N], xp[N], h[N];
@@ -545,10 +555,12 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     if (!smooth) return -1;
     /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one (where write_ps) */
     double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], U[N][NW];
-    double dx[N];
-    memcpy(x_s + N * (n - 1), x_filt + N * (n - 1), sizeof(double) * N);
+    double dx[N], xs[N], xs1[N], sd[NSTD]; /* xs1: the smoothed state of the step after (the previous iteration's) */
+    memcpy(xs1, x_filt + N * (n - 1), sizeof(xs1));
+    put_row(x_s, ldx, n - 1, xs1, N);
     unpack(Pbuf + NP * (n - 1), Ps);
-    std_row(x_s + N * (n - 1), Ps, mno, std + NSTD * (n - 1));
+    std_row(xs1, Ps, mno, sd);
+    put_row(std, lds, n - 1, sd, NSTD);
     memset(U, 0, sizeof(U));
     for (Py_ssize_t k = n - 2; k >= 0; k--) {
         const double *xf = x_filt + N * k;
@@ -595,8 +607,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             double d = 1.0 / U[i][i];
             for (int j = 0; j < 10; j++) Ct[i][j] = v[j] * d;
         }
-        double *xs = x_s + N * k;
-        const double *xs1 = x_s + N * (k + 1), *xp1 = x_pred + N * (k + 1);
+        const double *xp1 = x_pred + N * (k + 1);
         for (int m = 0; m < N; m++) dx[m] = xs1[m] - xp1[m];
         {
             double s[10]; /* xs = xf + C dx over the kinematic rows, summed over m in order as vector updates */
@@ -646,7 +657,10 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 Ps[j][i] = v;
             }
         if (write_ps) pack(Ps, Pbuf + NP * k);
-        std_row(xs, Ps, mno, std + NSTD * k);
+        std_row(xs, Ps, mno, sd);
+        put_row(x_s, ldx, k, xs, N);
+        put_row(std, lds, k, sd, NSTD);
+        memcpy(xs1, xs, sizeof(xs1));
     }
     return -1;
 }
@@ -657,7 +671,9 @@ static const char doc_ekf_rts[] =
     "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
-    "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted).\n"
+    "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted), then\n"
+    "ld and off for x_smooth and for std: ld 0, an (n, 22) / (n, 28) row-major array; else the whole (22, ld) /\n"
+    "(28, ld) column-major array, this run's step k in column off + k.\n"
     "Outputs are written in place; fail is -1 or the step at which a covariance stopped being positive\n"
     "definite, phase 0 update, 1 prediction, 2 backward pass.  pred (optional, with smooth; at least (n - 1) * 275\n"
     "items): scratch where the forward pass keeps each step's Phi_top P (10 x 22) and its prediction's kinematic\n"
@@ -680,7 +696,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                                     "la_dz", "par",  "x_filt", "x_pred",   "x_smooth", "P_packed", "resid", "std"};
     Py_ssize_t counts[24] = {n,     6 * n, 3 * n, 3 * n, 3 * n, n,     n,      n,
                              N,     N * N, 9,     3,     6 * n, -2,    -2,     -2,
-                             -2,    NPAR,  N * n, -N,    N * n, -NP,    NRES * n, NSTD * n};
+                             -2,    NPAR,  N * n, -N,    -1,    -NP,    NRES * n, -1};
     Buf b[24];
     int k;
     for (k = 0; k < 24; k++) {
@@ -701,8 +717,20 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
         Py_ssize_t nir = b[13].view.len / 8, nla = b[15].view.len / 8;
         const double *par = (const double *)b[17].view.buf;
         int keep = par[19] != 0.0 || par[21] != 0.0; /* smooth or keep_cov: x_pred and P_packed are written */
+        /* x_smooth and std: row-major (n rows) where par's ld is 0, else column-major (the whole (m, ld) array,
+           this run's rows from column off) */
+        Py_ssize_t ldx = (Py_ssize_t)par[23], offx = (Py_ssize_t)par[24], lds = (Py_ssize_t)par[25],
+                   offs = (Py_ssize_t)par[26];
+        int bad_x = ldx ? (par[23] != (double)ldx || offx < 0 || offx + n > ldx || b[20].view.len != 8 * N * ldx)
+                        : b[20].view.len != 8 * N * n;
+        int bad_s = lds ? (par[25] != (double)lds || offs < 0 || offs + n > lds || b[23].view.len != 8 * NSTD * lds)
+                        : b[23].view.len != 8 * NSTD * n;
         if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
             PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
+        } else if (ldx < 0 || lds < 0 || bad_x || bad_s) {
+            PyErr_Format(PyExc_ValueError,
+                         "ekf_rts: x_smooth and std: expected %zd x 22 and %zd x 28 float64 items (row-major), or "
+                         "22 x ld and 28 x ld with off + n <= ld (column-major)", n, n);
         } else if (keep && (b[19].view.len != 8 * N * n || b[21].view.len != 8 * NP * n)) {
             PyErr_Format(PyExc_ValueError, "ekf_rts: x_pred and P_packed: expected %zd and %zd float64 items", N * n,
                          NP * n);
@@ -714,8 +742,9 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
             Py_BEGIN_ALLOW_THREADS
             fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
                        p[14], nir, p[15], p[16], nla, p[17], (double *)b[18].view.buf, (double *)b[19].view.buf,
-                       (double *)b[20].view.buf, (double *)b[21].view.buf, (double *)b[22].view.buf,
-                       (double *)b[23].view.buf, has_pred ? (double *)bp.view.buf : NULL, &phase);
+                       (double *)b[20].view.buf + (ldx ? offx : 0), (double *)b[21].view.buf,
+                       (double *)b[22].view.buf, (double *)b[23].view.buf + (lds ? offs : 0),
+                       has_pred ? (double *)bp.view.buf : NULL, &phase);
             Py_END_ALLOW_THREADS
             res = Py_BuildValue("ni", fail, phase);
         }

@@ -72,6 +72,34 @@ def _f64(a: object) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def _layout(a: np.ndarray, m: int, name: str) -> tuple[np.ndarray, int, int]:
+    """An (n, m) output for the C loop: ``(buffer, ld, off)``.  ld 0: ``a`` is C-contiguous (row-major);
+    else ``a`` is ``whole[:, off:off + n].T`` of a C-contiguous float64 ``whole`` (m, ld), every column of
+    ``a`` a contiguous run of ``whole``'s row (what a table's columns are made of without a copy)."""
+    if a.flags.c_contiguous and a.dtype == np.float64:
+        return a, 0, 0
+    base = a.base
+    if (
+        a.dtype == np.float64
+        and isinstance(base, np.ndarray)
+        and base.ndim == 2
+        and base.shape[0] == m
+        and base.flags.c_contiguous
+        and a.strides == (8, 8 * base.shape[1])
+    ):
+        off = (a.__array_interface__["data"][0] - base.__array_interface__["data"][0]) // 8
+        if 0 <= off and off + a.shape[0] <= base.shape[1]:
+            return base, base.shape[1], off
+    raise ValueError(f"ski_ekf_rts: {name} must be C-contiguous float64 (n, {m}) or columns of an ({m}, ld) array")
+
+
+def column_outputs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Session-wide smoothed states (n, 22) and std rows (n, NSTD) laid out column by column (each the ``.T``
+    of a C-contiguous array): segments' rows of them are valid ``out`` arrays of :func:`ski_ekf_rts`, and a
+    state's column is contiguous (an output column of the table without a copy)."""
+    return np.empty((N, n)).T, np.empty((NSTD, n)).T
+
+
 def ski_ekf_rts(
     t, u, pos, vel, mag, inrun, landing, still, x0, P0, g0, mno, m_o, qd, rpos, rvel, rmag, rcq, rir, rhir, rla,
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
@@ -85,7 +113,8 @@ def ski_ekf_rts(
     back (only the ``std`` rows are wanted); the packed covariances returned are then empty too.
     ``out`` (with ``smooth``): ``(x_filt, x_smooth, resid, std)`` arrays of shapes (n, 22), (n, 22),
     (n, NRES), (n, NSTD) to write into (C-contiguous float64, e.g. a segment's rows of the session's arrays:
-    no concatenation afterwards); ``resid`` is set to NaN first.  ``work``: ``(x_pred, P_packed)`` scratch
+    no concatenation afterwards; ``x_smooth`` and ``std`` may instead be rows of :func:`column_outputs`'
+    column-major arrays); ``resid`` is set to NaN first.  ``work``: ``(x_pred, P_packed)`` scratch
     arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would have their pages
     zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
     returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of :data:`NPRED`)
@@ -114,10 +143,12 @@ def ski_ekf_rts(
         resid = np.full((n, NRES), np.nan)
         std = np.empty((n, NSTD)) if smooth else np.empty((0, NSTD))
     rpos, rvel = _f64(rpos), _f64(rvel)
+    xs_buf, ldx, offx = _layout(x_s, N, "x_smooth") if smooth else (np.empty((n, N)), 0, 0)
+    std_buf, lds, offs = _layout(std, NSTD, "std") if smooth else (np.empty((n, NSTD)), 0, 0)
     par = np.array(
         [g0, *rpos, *rvel, rmag, rcq, rir, rhir, rla, ir_x0, ir_step, la_x0, la_step]
         + [float(bool(v)) for v in (use_hill, use_vel, use_mag, smooth)]
-        + [rzu, float(keep), float(bool(smoothed_cov))],
+        + [rzu, float(keep), float(bool(smoothed_cov)), ldx, offx, lds, offs],
         dtype=np.float64,
     )
     fail, phase = mod.ekf_rts(
@@ -129,10 +160,10 @@ def ski_ekf_rts(
         par,
         x_filt,
         x_pred,
-        x_s if smooth else np.empty((n, N)),
+        xs_buf,
         pbuf,
         resid,
-        std if smooth else np.empty((n, NSTD)),
+        std_buf,
         pred,
     )
     if not keep or (smooth and not smoothed_cov):

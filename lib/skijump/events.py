@@ -456,7 +456,7 @@ def detect_jump_table(table: pa.Table, params: JumpParams | None = None) -> Jump
     p = params or JumpParams()
     schema.require_columns(table, ("acc_x", "acc_y", "acc_z"), "jump detection")
     t = schema.floats(table, "t")
-    acc = np.stack([schema.floats(table, c) for c in ("acc_x", "acc_y", "acc_z")], axis=-1)
+    acc = schema.float_columns(table, ("acc_x", "acc_y", "acc_z"))
     imu = np.isfinite(acc).all(axis=1)
     if not imu.any():
         raise InputError("columns acc_x, acc_y, acc_z hold no samples; expected accelerometer data")

@@ -425,8 +425,8 @@ def smooth_inputs(
     whole = work = None  # the C engine writes each segment's final run into its rows of these (no concatenation)
     if fast is not None and not fast.__name__.endswith("smoother_fast"):
         n_all = inp.t.size
-        whole = (np.empty((n_all, mdl.N)), np.empty((n_all, mdl.N)), np.empty((n_all, fast.NRES)))
-        whole += (np.empty((n_all, fast.NSTD)),)
+        x_s, std = fast.column_outputs(n_all)  # column by column: the table's columns without copies
+        whole = (np.empty((n_all, mdl.N)), x_s, np.empty((n_all, fast.NRES)), std)
         if not keep_cov:  # the predictions and covariances of the longest segment, reused by every run
             n_max = max(b - a for a, b in segments(inp.t, cfg.max_gap))
             work = (np.empty((n_max, mdl.N)), np.empty((n_max, fast.NP)))
@@ -651,15 +651,15 @@ def rts_smooth_table(
     if filtered:
         cols.update(_estimate_columns(res.x_filt, None, inp, prefix="filt_"))
     if t_rows.size == inp.t.size and np.array_equal(t_rows, inp.t):
-        out_cols = cols  # every row is an IMU step: nothing to interpolate
+        out_cols = cols  # every row is an IMU step: nothing to interpolate (the quaternions are unit)
     else:
         out_cols = _interp_columns(t_rows, inp.t, cols, cfg.max_gap)
-    # quaternions interpolated linearly: renormalise
-    for pre in ("", "filt_") if filtered else ("",):
-        qs = np.stack([out_cols[f"{pre}q{k}"] for k in range(4)], axis=-1)
-        qs /= np.linalg.norm(qs, axis=1, keepdims=True)
-        for k in range(4):
-            out_cols[f"{pre}q{k}"] = qs[:, k]
+        # quaternions interpolated linearly: renormalise
+        for pre in ("", "filt_") if filtered else ("",):
+            qs = [out_cols[f"{pre}q{k}"] for k in range(4)]
+            nq = np.sqrt(qs[0] * qs[0] + qs[1] * qs[1] + qs[2] * qs[2] + qs[3] * qs[3])
+            for k in range(4):
+                out_cols[f"{pre}q{k}"] = qs[k] / nq
     out = with_columns(table, out_cols)
     new_meta = dict(meta)
     new_meta["frame"] = frame.to_meta()

@@ -223,14 +223,16 @@ class SkiJumpInputs:
     mag_disturbed: np.ndarray | None = None  # (n,) bool: magnetometer samples skipped as disturbed
 
 
-def _floats(table: pa.Table, names: tuple[str, ...]) -> np.ndarray:
-    return np.stack([schema.floats(table, c) for c in names], axis=-1)
-
-
 def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Put row samples onto the nearest IMU step (within half a step); (n, k) with NaN elsewhere."""
+    """Put row samples onto the nearest IMU step (within half a step); (n, k) with NaN elsewhere.
+
+    Where every row is an IMU step, ``values`` itself is returned with NaN written into its rows that are not
+    ``rows_ok`` (the callers' arrays are their own: no copy of the session's rows).
+    """
     if t.size == t_rows.size:  # every row is an IMU step (t is t_rows, strictly increasing): row k is step k
-        return np.where(rows_ok[:, None], values, np.nan)
+        if not rows_ok.all():
+            values[~rows_ok] = np.nan
+        return values
     out = np.full((t.size, values.shape[1]), np.nan)
     ts, vs = t_rows[rows_ok], values[rows_ok]
     if ts.size == 0:
@@ -397,7 +399,7 @@ def _hill_frame(table: pa.Table, meta: dict[str, Any], hill: Hill) -> tuple[Fram
                 f"gnss_x/y/z are in frame origin {list(own.origin)}, azimuth {own.azimuth_deg:g} deg, not the hill's "
                 f"{list(frame.origin)}, {frame.azimuth_deg:g} deg; expected gps2hill with the same --hill"
             )
-        return own, _floats(table, ("gnss_x", "gnss_y", "gnss_z"))
+        return own, schema.float_columns(table, ("gnss_x", "gnss_y", "gnss_z"))
     if frame is None:
         raise InputError("the hill has no take-off edge position and the table no frame; expected gps2hill output")
     raise InputError(
@@ -418,13 +420,13 @@ def session_inputs(
     missing = [c for c in IMU_COLUMNS if c not in table.column_names]
     if missing:
         raise InputError(f"missing column(s) {', '.join(missing)}; expected IMU data (gyroscope and accelerometer)")
-    imu = _floats(table, IMU_COLUMNS)
+    imu = schema.float_columns(table, IMU_COLUMNS)
     ok = np.isfinite(imu).all(axis=1)
     if ok.sum() < 10:
         raise InputError("the IMU columns hold fewer than 10 complete samples; expected a recorded IMU")
     rows = np.flatnonzero(ok)
     t = t_rows[rows]
-    u = imu[rows]
+    u = imu if rows.size == imu.shape[0] else imu[rows]
     frame, pos_rows = _hill_frame(table, meta, hill)
     pos_ok = np.isfinite(pos_rows).all(axis=1)
     if not pos_ok.any():
@@ -434,12 +436,12 @@ def session_inputs(
     if np.isfinite(pos[:, 0]).sum() == 0:
         raise InputError("no GNSS fix falls within the IMU recording; expected overlapping GNSS and IMU data")
     if set(VEL_COLUMNS) <= set(table.column_names):
-        v_rows = _floats(table, VEL_COLUMNS)
+        v_rows = schema.float_columns(table, VEL_COLUMNS)
         vel = _to_steps(t_rows, np.isfinite(v_rows).all(axis=1), v_rows, t)
     else:
         vel = np.full((t.size, 3), np.nan)
     if set(MAG_COLUMNS) <= set(table.column_names):
-        m_rows = _floats(table, MAG_COLUMNS)
+        m_rows = schema.float_columns(table, MAG_COLUMNS)
         mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
     else:
         mag = np.full((t.size, 3), np.nan)

@@ -79,19 +79,25 @@ def _estimate_columns(
     ``std`` (n, 28): the standard deviations computed in the compiled backward pass (states, hill-frame
     velocity, Euler angles); without it they come from ``cov``/``var`` here (the reference).
     """
+    # Every column is made contiguous here (a table column without a copy): vectors are formed component by
+    # component, or into the rows of (3, n) arrays; where x and std come from the C engine's column-major
+    # arrays (_ski_native.column_outputs), their columns are contiguous as they are
+    n = x.shape[0]
     q = x[:, 6:10]
-    qn = q / np.linalg.norm(q, axis=1, keepdims=True)
+    n2 = q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3]
+    nq = np.sqrt(n2)
     M = m_bo(q)
-    v_o = np.einsum("nji,nj->ni", M, x[:, 3:6])
-    v_n = rotations.ned_to_local(v_o, inp.azimuth_deg)  # the one NED -> hill-frame rotation
-    roll, pitch, yaw = rotations.euler_from_quat(qn)
+    v_o, v_n = np.empty((3, n)), np.empty((3, n))
+    np.einsum("nji,nj->ni", M, x[:, 3:6], out=v_o.T)
+    rotations.ned_to_local(v_o.T, inp.azimuth_deg, out=v_n.T)  # the one NED -> hill-frame rotation
+    roll, pitch, yaw = rotations.euler_from_dcm(M, scale=n2)  # M_BO of the raw quaternion: |q|^2 a rotation
     cols: dict[str, np.ndarray] = {}
     for k, a in enumerate("xyz"):
         cols[prefix + a] = x[:, k]
     for k, a in enumerate("xyz"):
-        cols[f"{prefix}v{a}"] = v_n[:, k]
+        cols[f"{prefix}v{a}"] = v_n[k]
     for k in range(4):
-        cols[f"{prefix}q{k}"] = qn[:, k]
+        cols[f"{prefix}q{k}"] = q[:, k] / nq
     cols[prefix + "roll"], cols[prefix + "pitch"], cols[prefix + "yaw"] = roll, pitch, yaw
     if prefix:
         return cols
@@ -99,9 +105,10 @@ def _estimate_columns(
         for k, a in enumerate("xyz"):
             cols[f"{name}_{a}"] = x[:, sl][:, k]
     # eq 50: the magnetometer the estimate predicts (the paper's Figure 12 sets it beside the measurement)
-    mag = (1.0 + x[:, mdl.I_SM]) * (M @ inp.m_o) + x[:, mdl.I_BM]
+    m_o = inp.m_o
     for k, a in enumerate("xyz"):
-        cols[f"mag_pred_{a}"] = mag[:, k]
+        b_k = M[:, k, 0] * m_o[0] + M[:, k, 1] * m_o[1] + M[:, k, 2] * m_o[2]
+        cols[f"mag_pred_{a}"] = (1.0 + x[:, mdl.I_SM.start + k]) * b_k + x[:, mdl.I_BM.start + k]
     if cov is None and std is None:
         return cols
     if std is not None:

@@ -425,7 +425,7 @@ def trajectory_from_truth(truth: object, meta: dict) -> Trajectory:
 
     schema.require_columns(truth, ["t", "true_x", "true_y", "true_z"], "rendering the landing")  # type: ignore[arg-type]
     t = schema.floats(truth, "t")  # type: ignore[arg-type]
-    r = np.stack([schema.floats(truth, f"true_{a}") for a in "xyz"], -1)  # type: ignore[arg-type]
+    r = schema.float_columns(truth, ("true_x", "true_y", "true_z"))  # type: ignore[arg-type]
     events = [e for e in (meta.get("events") or []) if isinstance(e, dict) and e.get("name") == "touchdown"]
     if not events:
         raise InputError("the truth has no touch-down event; expected a simulated ski jump")
