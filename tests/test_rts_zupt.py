@@ -33,6 +33,14 @@ def test_window_mean_std_matches_numpy_windows() -> None:
     for i in range(lo.size):
         np.testing.assert_allclose(mean[i], x[lo[i] : hi[i]].mean(axis=0), rtol=0, atol=1e-9)
         np.testing.assert_allclose(std[i], x[lo[i] : hi[i]].std(axis=0), rtol=0, atol=1e-9)
+    # more windows than one block of rows (windows.py's _BLOCK): every block's windows
+    x = rng.normal(size=(9000, 3)) + [5.0, -2.0, 9.81]
+    lo = rng.integers(0, 8990, 9000)
+    hi = lo + rng.integers(1, 10, 9000)
+    mean, std = window_mean_std(x, lo, hi)
+    for i in (0, 4095, 4096, 4097, 8191, 8192, 8999):
+        np.testing.assert_allclose(mean[i], x[lo[i] : hi[i]].mean(axis=0), rtol=0, atol=1e-9)
+        np.testing.assert_allclose(std[i], x[lo[i] : hi[i]].std(axis=0), rtol=0, atol=1e-9)
 
 
 def test_still_ends_where_the_motion_starts() -> None:
