@@ -811,9 +811,80 @@ static PyObject *py_body_to_start(PyObject *self, PyObject *args) {
     return res;
 }
 
+static const char doc_latency_misfit[] =
+    "latency_misfit(ts, v, tg, vg, grid, work, out) -> None\n\n"
+    "alignment.gnss_latency's misfit at every delay of grid (g, ascending) [s]: the IMU velocity v (k, 3) at times ts\n"
+    "(k, increasing) interpolated linearly (np.interp: held at the ends) to tg - delay for every fix tg (f), subtracted\n"
+    "from the GNSS velocities vg (f, 3); per axis the constant (the mean) and the drift over tg - mean(tg) removed; out\n"
+    "(g) receives the sum of the squares left.  work: at least 3 f items of scratch.";
+
+/* the residuals' squares left after a constant and a drift per axis, delay by delay (gnss_latency's sums) */
+static void latency_misfit(Py_ssize_t k, const double *ts, const double *v, Py_ssize_t f, const double *tg,
+                           const double *vg, Py_ssize_t g, const double *grid, double *r, double *out) {
+    double tm = 0.0, tt = 0.0;
+    for (Py_ssize_t i = 0; i < f; i++) tm += tg[i];
+    tm /= (double)f;
+    for (Py_ssize_t i = 0; i < f; i++) tt += (tg[i] - tm) * (tg[i] - tm);
+    for (Py_ssize_t j = 0; j < g; j++) {
+        double mean[3] = {0.0, 0.0, 0.0}, s1[3] = {0.0, 0.0, 0.0}, ss = 0.0;
+        Py_ssize_t p = 0; /* the fixes' query times ascend: the interval only moves forward */
+        for (Py_ssize_t i = 0; i < f; i++) {
+            double q = tg[i] - grid[j];
+            for (int c = 0; c < 3; c++) {
+                double vi;
+                if (!(q > ts[0]))
+                    vi = v[c];
+                else if (!(q < ts[k - 1]))
+                    vi = v[3 * (k - 1) + c];
+                else {
+                    while (ts[p + 1] <= q) p++;
+                    double slope = (v[3 * (p + 1) + c] - v[3 * p + c]) / (ts[p + 1] - ts[p]);
+                    vi = slope * (q - ts[p]) + v[3 * p + c];
+                }
+                r[3 * i + c] = vg[3 * i + c] - vi;
+                mean[c] += r[3 * i + c];
+            }
+        }
+        for (int c = 0; c < 3; c++) mean[c] /= (double)f;
+        for (Py_ssize_t i = 0; i < f; i++)
+            for (int c = 0; c < 3; c++) {
+                double e = r[3 * i + c] - mean[c];
+                ss += e * e;
+                s1[c] += (tg[i] - tm) * e;
+            }
+        out[j] = ss - (s1[0] * s1[0] + s1[1] * s1[1] + s1[2] * s1[2]) / tt;
+    }
+}
+
+static PyObject *py_latency_misfit(PyObject *self, PyObject *args) {
+    PyObject *o[7];
+    if (!PyArg_ParseTuple(args, "OOOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6])) return NULL;
+    Buf b[7];
+    static const char *names[7] = {"ts", "v", "tg", "vg", "grid", "work", "out"};
+    Py_ssize_t counts[7] = {-2, -6, -2, -6, -1, -6, -1};
+    int n;
+    for (n = 0; n < 7; n++)
+        if (get_buf(o[n], &b[n], counts[n], n >= 5, names[n]) < 0) break;
+    PyObject *res = NULL;
+    if (n == 7) {
+        Py_ssize_t k = b[0].view.len / 8, f = b[2].view.len / 8, g = b[4].view.len / 8;
+        if (b[1].view.len != 24 * k || b[3].view.len != 24 * f || b[5].view.len < 24 * f || b[6].view.len != 8 * g) {
+            PyErr_SetString(PyExc_ValueError, "latency_misfit: expected v (k, 3), vg (f, 3), work >= 3 f and out (g)");
+        } else {
+            latency_misfit(k, b[0].view.buf, b[1].view.buf, f, b[2].view.buf, b[3].view.buf, g, b[4].view.buf,
+                           b[5].view.buf, b[6].view.buf);
+            Py_INCREF(Py_None);
+            res = Py_None;
+        }
+    }
+    release(b, n < 7 ? n + 1 : 7);
+    return res;
+}
+
 static PyMethodDef methods[] = {
     {"ekf_rts", py_ekf_rts, METH_VARARGS, doc_ekf_rts},
     {"body_to_start", py_body_to_start, METH_VARARGS, doc_body_to_start},
+    {"latency_misfit", py_latency_misfit, METH_VARARGS, doc_latency_misfit},
     {NULL, NULL, 0, NULL},
 };
 

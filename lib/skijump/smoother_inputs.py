@@ -352,7 +352,9 @@ def constraint_windows(
             ):
                 i -= 1
             start = max(speed_t[i], seg_start)
-        inrun |= (t >= start) & (t <= t_to)
+        # the steps inside each window found by bisection: the masks are written over those steps only (a
+        # training day has dozens of jumps over tens of thousands of steps)
+        inrun[np.searchsorted(t, start, "left") : np.searchsorted(t, t_to, "right")] = True
         # landing: from the touch-down to the end of the first rest after it
         nxt = jumps[k + 1][0] if k + 1 < len(jumps) else math.inf
         after = np.flatnonzero((speed_t > t_td + 1.0) & (speed_t < nxt) & slow)
@@ -371,10 +373,9 @@ def constraint_windows(
             if i + 1 < speed_t.size and speed_t[i + 1] < nxt:  # moving again, or a gap, before the next jump
                 end = speed_t[i]
         t0 = t_td + cfg.la_delay
-        w = np.clip((t - t0) / cfg.la_ramp, 0.0, 1.0) if cfg.la_ramp > 0 else (t >= t0).astype(float)
-        w[t < t0] = 0.0
-        w[t > end] = 0.0
-        landing = np.maximum(landing, w)
+        sl = slice(np.searchsorted(t, t0, "left"), np.searchsorted(t, end, "right"))  # t0 <= t <= end
+        w = np.clip((t[sl] - t0) / cfg.la_ramp, 0.0, 1.0) if cfg.la_ramp > 0 else np.ones(t[sl].size)
+        np.maximum(landing[sl], w, out=landing[sl])
         seg_start = end
     return inrun, landing
 
