@@ -325,11 +325,8 @@ def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
         assert R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False)[2].shape == (0, 253)
 
 
-@pytest.mark.skipif(not _native_built(), reason="C extension not built")
-def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The forward pass's predictions kept in ``work``'s third array give the backward pass the numbers it
-    would form again, to the bit; smooth_inputs keeps them on a session of many short segments only."""
-    from sportfusion.skijump import _ski_native
+def _first_900_rows():  # noqa: ANN202
+    """The fixture session's first 900 rows (one jump, take-off at 8 s), one pass: its inputs and initial state."""
     from sportfusion.skijump import smoother as R
     from sportfusion.skijump import smoother_inputs as RI
 
@@ -338,6 +335,18 @@ def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyP
     cfg = SmootherConfig(passes=1)
     inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
     x0, P0 = R.initial_state(inp, cfg)
+    return tab, meta, hill, cfg, inp, x0, P0
+
+
+@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The forward pass's predictions kept in ``work``'s third array give the backward pass the numbers it
+    would form again, to the bit; smooth_inputs keeps them on a session of many short segments only."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_inputs as RI
+
+    tab, meta, hill, cfg, inp, x0, P0 = _first_900_rows()
     n = inp.t.size
     work = (np.empty((n, 22)), np.empty((n, 253)))
     pred = np.full((n, _ski_native.NPRED), np.nan)
@@ -373,13 +382,8 @@ def test_c_loop_writes_states_and_std_column_by_column() -> None:
     offset) are its row-major results, to the bit; each column of them is contiguous; other layouts are refused."""
     from sportfusion.skijump import _ski_native
     from sportfusion.skijump import smoother as R
-    from sportfusion.skijump import smoother_inputs as RI
 
-    tab, meta = sfio.read_table(FIX + "session.parquet")
-    hill = load_hill(HILL)
-    cfg = SmootherConfig(passes=1)
-    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
-    x0, P0 = R.initial_state(inp, cfg)
+    _, _, hill, cfg, inp, x0, P0 = _first_900_rows()
     n = inp.t.size
     rows = (np.empty((n, 22)), np.empty((n, 22)), np.empty((n, _ski_native.NRES)), np.empty((n, _ski_native.NSTD)))
     a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=rows)
