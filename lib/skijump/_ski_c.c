@@ -813,10 +813,10 @@ static PyObject *py_body_to_start(PyObject *self, PyObject *args) {
 
 static const char doc_latency_misfit[] =
     "latency_misfit(ts, v, tg, vg, grid, work, out) -> None\n\n"
-    "alignment.gnss_latency's misfit at every delay of grid (g, ascending) [s]: the IMU velocity v (k, 3) at times ts\n"
-    "(k, increasing) interpolated linearly (np.interp: held at the ends) to tg - delay for every fix tg (f), subtracted\n"
-    "from the GNSS velocities vg (f, 3); per axis the constant (the mean) and the drift over tg - mean(tg) removed; out\n"
-    "(g) receives the sum of the squares left.  work: at least 3 f items of scratch.";
+    "alignment.gnss_latency's misfit at every delay of grid (g, ascending) [s]: the IMU velocity v (k, 3) at times\n"
+    "ts (k, increasing) interpolated linearly (np.interp: held at the ends) to tg - delay for every fix tg (f,\n"
+    "increasing) and subtracted from the GNSS velocities vg (f, 3); per axis the constant (the mean) and the drift\n"
+    "over tg - mean(tg) removed; out (g) receives the sum of the squares left.  work: at least 3 f items of scratch.";
 
 /* the residuals' squares left after a constant and a drift per axis, delay by delay (gnss_latency's sums) */
 static void latency_misfit(Py_ssize_t k, const double *ts, const double *v, Py_ssize_t f, const double *tg,
