@@ -51,6 +51,9 @@ def test_solve_and_diagonal_of_the_inverse_match_dense(n: int) -> None:
     ref = np.linalg.solve(a, r.reshape(n * b, 3)).reshape(n, b, 3)
     assert np.allclose(x, ref, rtol=1e-10, atol=1e-12)
     assert np.allclose(blocktri.solve(f, r[..., 0]), ref[..., 0], rtol=1e-10, atol=1e-12)  # one right-hand side
+    r = rng.normal(size=(n, b, 37))  # more right-hand sides than the C products take at a time (16)
+    ref = np.linalg.solve(a, r.reshape(n * b, 37)).reshape(n, b, 37)
+    assert np.allclose(blocktri.solve(f, r), ref, rtol=1e-10, atol=1e-12)
     inv = np.linalg.inv(a)
     g = blocktri.diagonal_of_inverse(f)
     for k in range(n):

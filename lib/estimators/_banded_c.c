@@ -575,22 +575,32 @@ static int bt_chol(double *a, int b) { /* lower Cholesky in place (the upper par
     return 0;
 }
 
+/* The triangular solves and products below run with the right-hand sides' columns (q) innermost: independent
+   sums side by side (vectorised) instead of one chain of dependent ones after another.  Each element still
+   subtracts or adds the same products in the same order (k or j ascending), so the results are those of the
+   element-by-element loops to the bit. */
 static void bt_fwd(const double *l, int b, double *x, int c) { /* x <- L^-1 x, x (b x c) */
-    for (int i = 0; i < b; i++)
-        for (int q = 0; q < c; q++) {
-            double v = x[i * c + q];
-            for (int k = 0; k < i; k++) v -= l[i * b + k] * x[k * c + q];
-            x[i * c + q] = v / l[i * b + i];
+    for (int i = 0; i < b; i++) {
+        double *xi = x + i * c;
+        for (int k = 0; k < i; k++) {
+            const double a = l[i * b + k], *xk = x + k * c;
+            for (int q = 0; q < c; q++) xi[q] -= a * xk[q];
         }
+        const double d = l[i * b + i];
+        for (int q = 0; q < c; q++) xi[q] /= d;
+    }
 }
 
 static void bt_bwd(const double *l, int b, double *x, int c) { /* x <- L^-T x, x (b x c) */
-    for (int i = b - 1; i >= 0; i--)
-        for (int q = 0; q < c; q++) {
-            double v = x[i * c + q];
-            for (int k = i + 1; k < b; k++) v -= l[k * b + i] * x[k * c + q];
-            x[i * c + q] = v / l[i * b + i];
+    for (int i = b - 1; i >= 0; i--) {
+        double *xi = x + i * c;
+        for (int k = i + 1; k < b; k++) {
+            const double a = l[k * b + i], *xk = x + k * c;
+            for (int q = 0; q < c; q++) xi[q] -= a * xk[q];
         }
+        const double d = l[i * b + i];
+        for (int q = 0; q < c; q++) xi[q] /= d;
+    }
 }
 
 /* returns -1, or the first block whose Schur complement is not positive definite */
@@ -619,11 +629,17 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
 
 /* x (b x c) -= M y, M (b x b) read as m[i * si + j * sj]: (si, sj) = (b, 1) for W, (1, b) for W^T */
 static void bt_sub_prod(int b, int c, const double *m, int si, int sj, const double *y, double *x) {
+    enum { CH = 16 }; /* the sums of up to CH columns at a time */
+    double v[CH];
     for (int i = 0; i < b; i++)
-        for (int q = 0; q < c; q++) {
-            double v = 0.0;
-            for (int j = 0; j < b; j++) v += m[i * si + j * sj] * y[j * c + q];
-            x[i * c + q] -= v;
+        for (int q0 = 0; q0 < c; q0 += CH) {
+            const int nq = c - q0 < CH ? c - q0 : CH;
+            for (int q = 0; q < nq; q++) v[q] = 0.0;
+            for (int j = 0; j < b; j++) {
+                const double a = m[i * si + j * sj], *yj = y + j * c + q0;
+                for (int q = 0; q < nq; q++) v[q] += a * yj[q];
+            }
+            for (int q = 0; q < nq; q++) x[i * c + q0 + q] -= v[q];
         }
 }
 
