@@ -80,3 +80,48 @@ def test_commands_run_blas_on_one_thread_unless_the_user_says_otherwise() -> Non
     env["OPENBLAS_NUM_THREADS"] = "4"
     out = subprocess.run([sys.executable, "-c", prog], env=env, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["4", "1"]
+
+
+def test_the_collector_pause_names_every_console_script() -> None:
+    from conftest import console_scripts
+
+    assert sportfusion.tools.COMMANDS == set(console_scripts())
+
+
+PAUSE = """
+import gc, sys
+sys.argv[0] = {argv0!r}
+import sportfusion.tools as t
+paused = not gc.isenabled()
+t.resume_gc()
+print(paused, t.GC_PAUSED, gc.isenabled(), gc.get_freeze_count() > 0)
+"""
+
+
+def test_a_console_script_imports_with_the_collector_paused_and_resumes_it() -> None:
+    # the console script's path names the command: the package pauses the collector while modules import,
+    # resume_gc freezes what they made and turns it back on
+    out = subprocess.run(
+        [sys.executable, "-c", PAUSE.format(argv0="/venv/bin/rts-smooth")], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.split() == ["True", "False", "True", "True"]
+    # any other process (python -c, a test run, a notebook) keeps its collector as it was
+    out = subprocess.run([sys.executable, "-c", PAUSE.format(argv0="-c")], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["False", "False", "True", "False"]
+
+
+def test_a_command_resumes_the_collector_however_it_is_run(monkeypatch) -> None:
+    import gc
+
+    from click.testing import CliRunner
+
+    from sportfusion.tools.inspect_cmd import main
+
+    gc.disable()
+    monkeypatch.setattr(sportfusion.tools, "GC_PAUSED", True)
+    try:
+        CliRunner().invoke(main, ["--help"])
+        assert gc.isenabled() and not sportfusion.tools.GC_PAUSED
+    finally:
+        gc.enable()
+        gc.unfreeze()

@@ -28,6 +28,7 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import drop_impossible, nonfinite_to_null
 from sportfusion.data.papers import citation
+from sportfusion.tools import resume_gc
 from sportfusion.tools._options import check_float_options, check_option_values
 
 T = TypeVar("T")
@@ -205,9 +206,13 @@ class CleanExit:
     A console script also keeps pandas out: no command uses it, but where it is installed pyarrow
     imports it on the first ``to_numpy`` of a column (its optional pandas integration), which costs a
     command 0.13-0.25 s of CPU before any work (measured on rts-smooth, issue 18).
+
+    However it is run, the command first turns Python's garbage collector back on where the console
+    script's imports paused it (:func:`sportfusion.tools.resume_gc`).
     """
 
     def main(self, *args: Any, **kwargs: Any) -> Any:
+        resume_gc()  # paused while a console script's modules imported (sportfusion.tools)
         as_script = kwargs.get("standalone_mode", True) and os.path.basename(sys.argv[0]) == self.name  # type: ignore[attr-defined]
         if not as_script:
             return super().main(*args, **kwargs)  # type: ignore[misc]
