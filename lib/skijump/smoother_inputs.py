@@ -527,10 +527,12 @@ def still_steps(
         if b - a < 3:
             still[a:b] = False
             continue
+        k = np.flatnonzero(still[a:b])  # the IMU spread only where the GNSS speed says still (the gate, the stop)
+        if k.size == 0:
+            continue
         half = max(1, int(round(0.5 * cfg.zupt_window / median(np.diff(t[a:b])))))
-        k = np.arange(b - a)
         sd = window_mean_std(u[a:b], np.maximum(k - half, 0), np.minimum(k + half + 1, b - a))[1]  # centred
-        still[a:b] &= (sd[:, 0:3].max(axis=1) < cfg.zupt_gyr) & (sd[:, 3:6].max(axis=1) < cfg.zupt_acc)
+        still[a + k] = (sd[:, 0:3].max(axis=1) < cfg.zupt_gyr) & (sd[:, 3:6].max(axis=1) < cfg.zupt_acc)
     # drop runs shorter than zupt_min
     edges = np.flatnonzero(np.diff(np.concatenate(([0], still.astype(np.int8), [0]))))
     for a, b in zip(edges[::2], edges[1::2], strict=True):
