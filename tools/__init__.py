@@ -7,8 +7,8 @@ Set ``OPENBLAS_NUM_THREADS`` (or ``OMP_NUM_THREADS``) yourself to override.
 
 In a console script's process it also pauses Python's cyclic garbage collector while the command's
 modules import: numpy, pyarrow, click and the library create objects that live as long as the process,
-and the ~60 young-generation collections that sweep them cost 30-40 ms of CPU on a 2-core machine (about
-a tenth of a ``--help``; issue 18).  :class:`sportfusion.tools._cli.CleanExit` freezes what the imports made and turns
+and the ~60 young-generation collections that sweep them cost ~20 ms of CPU on a 2-core machine (a
+tenth of a ``--help``; issue 18).  :class:`sportfusion.tools._cli.CleanExit` freezes what the imports made and turns
 the collector back on before the command parses its options.  Imported any other way (a test, a
 notebook) the package leaves the collector alone.
 """
