@@ -142,8 +142,8 @@ def grip_columns(table: pa.Table, params: GripParams | None = None) -> tuple[dic
     """
     p = params or GripParams()
     schema.require_columns(table, (*IMU_COLUMNS, "acc_x", "acc_y", "acc_z"), "grip detection")
-    gyr = np.column_stack([schema.floats(table, c) for c in IMU_COLUMNS])
-    acc = np.column_stack([schema.floats(table, f"acc_{a}") for a in "xyz"])
+    gyr = schema.float_columns(table, IMU_COLUMNS)
+    acc = schema.float_columns(table, [f"acc_{a}" for a in "xyz"])
     rows = np.isfinite(gyr).all(axis=1)
     if rows.sum() < p.window + 1:
         raise InputError(
@@ -151,7 +151,7 @@ def grip_columns(table: pa.Table, params: GripParams | None = None) -> tuple[dic
         )
     r_world = None
     if p.world_frame and all(c in table.column_names for c in DEV_Q):
-        q = np.column_stack([schema.floats(table, c) for c in DEV_Q])[rows]
+        q = schema.float_columns(table, DEV_Q)[rows]
         if np.isfinite(q).all() and (np.linalg.norm(q, axis=1) > 0.5).all():
             r_world = _so3.matrix_from_quat(q / np.linalg.norm(q, axis=1)[:, None])
     grip = detect_grips(gyr[rows], p, r_world, np.nan_to_num(acc[rows]))

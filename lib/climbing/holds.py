@@ -131,7 +131,7 @@ def validate(table: pa.Table, meta: dict[str, Any]) -> HoldMap:
     hold = np.asarray(holds.to_numpy(), dtype=np.int64)
     if (hold < 0).any():
         raise InputError(f"hold number {int(hold.min())} is negative; expected hold numbers >= 0")
-    pos = np.column_stack([schema.floats(table, a) for a in "xyz"])
+    pos = schema.float_columns(table, ("x", "y", "z"))
     bad = ~np.isfinite(pos).all(axis=1)
     if bad.any():
         i = int(np.argmax(bad))

@@ -73,7 +73,7 @@ class Track:
 
 
 def _normalised_mag(table: pa.Table, meta: dict[str, Any], rows: np.ndarray) -> np.ndarray:
-    mag = np.column_stack([schema.floats(table, f"mag_{a}") for a in "xyz"])[rows]
+    mag = schema.float_columns(table, [f"mag_{a}" for a in "xyz"])[rows]
     unit = (meta.get("units") or {}).get("mag_x", schema.unit_of("mag_x"))
     if unit == "1":
         return mag
@@ -109,8 +109,8 @@ def track_holds(table: pa.Table, meta: dict[str, Any], holds: HoldMap, opts: Tra
     """
     o = opts or TrackOptions()
     schema.require_columns(table, (*IMU, "grip"), "hold tracking (run `detect-events --kind grips` first)")
-    acc = np.column_stack([schema.floats(table, f"acc_{a}") for a in "xyz"])
-    gyr = np.column_stack([schema.floats(table, f"gyr_{a}") for a in "xyz"])
+    acc = schema.float_columns(table, [f"acc_{a}" for a in "xyz"])
+    gyr = schema.float_columns(table, [f"gyr_{a}" for a in "xyz"])
     rows = np.isfinite(acc).all(axis=1) & np.isfinite(gyr).all(axis=1)
     if rows.sum() < 3:
         raise InputError(f"only {int(rows.sum())} IMU samples; expected a trial of many samples")

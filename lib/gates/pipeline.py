@@ -401,7 +401,7 @@ def survey_in_frame(survey: Any, survey_meta: dict[str, Any], frame: Any) -> tup
     names = survey.column_names
     sf = Frame.from_meta(survey_meta["frame"]) if survey_meta.get("frame") else None
     if all(c in names for c in ("x", "y", "z")):
-        xyz = np.column_stack([schema.floats(survey, c) for c in ("x", "y", "z")])
+        xyz = schema.float_columns(survey, ("x", "y", "z"))
         if frame is not None and sf is not None and (sf.origin != frame.origin or sf.azimuth_deg != frame.azimuth_deg):
             lat, lon, h = sf.to_geodetic(xyz[:, 0], xyz[:, 1], xyz[:, 2])
             xyz = np.column_stack(frame.from_geodetic(lat, lon, h))
@@ -463,14 +463,14 @@ def gate_anchor_table(
         if all(v in ("L", "R") for v in tv):
             sides = np.array([1.0 if v == "R" else -1.0 for v in tv])
     t = schema.floats(table, "t")
-    acc = np.column_stack([schema.floats(table, c) for c in ("acc_x", "acc_y", "acc_z")])
-    gyr = np.column_stack([schema.floats(table, c) for c in ("gyr_x", "gyr_y", "gyr_z")])
+    acc = schema.float_columns(table, ("acc_x", "acc_y", "acc_z"))
+    gyr = schema.float_columns(table, ("gyr_x", "gyr_y", "gyr_z"))
     imu = np.isfinite(acc).all(axis=1) & np.isfinite(gyr).all(axis=1)
     if imu.sum() < 100:
         raise InputError(f"{int(imu.sum())} rows with acc_* and gyr_*; expected an IMU recording")
     q = None
     if all(f"q{i}" in table.column_names for i in range(4)):
-        qn = np.column_stack([schema.floats(table, f"q{i}") for i in range(4)])[imu]
+        qn = schema.float_columns(table, [f"q{i}" for i in range(4)])[imu]
         if np.isfinite(qn).all():
             az = np.deg2rad(frame.azimuth_deg if frame is not None else 0.0)
             qz = np.array([np.cos(-az / 2), 0.0, 0.0, np.sin(-az / 2)])  # NED -> local

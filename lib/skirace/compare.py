@@ -204,10 +204,10 @@ def track_from_table(table: pa.Table, label: str) -> tuple[Track, list[str]]:
             "(speeds are noisy; smooth it first with spline-smooth)"
         )
     t = schema.floats(table, "t")
-    pos = np.column_stack([schema.floats(table, c) for c in cols])
+    pos = schema.float_columns(table, cols)
     vel = None
     if vcols and set(vcols) <= names:
-        vel = np.column_stack([schema.floats(table, c) for c in vcols])
+        vel = schema.float_columns(table, vcols)
     ok = np.all(np.isfinite(pos), axis=1)
     if vel is not None:
         if np.all(np.isfinite(vel[ok])):

@@ -418,12 +418,12 @@ def gyro_sampling(meta: dict) -> tuple[str, str]:
 
 
 def _xyz(table: pa.Table, prefix: str, suffix: str = "") -> np.ndarray | None:
-    from sportfusion.core.schema import floats
+    from sportfusion.core.schema import float_columns
 
     names = [f"{prefix}{a}{suffix}" for a in "xyz"]
     if not all(n in table.column_names for n in names):
         return None
-    return np.column_stack([floats(table, n) for n in names])
+    return float_columns(table, names)
 
 
 def session_site(table: pa.Table, meta: dict) -> tuple[float, float, float] | None:

@@ -279,7 +279,7 @@ def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResul
     and the frame azimuth from the metadata.  ``options`` are those of
     :func:`smooth_track` except the arrays and ``azimuth_deg``.
     """
-    from sportfusion.core.schema import floats
+    from sportfusion.core.schema import float_columns, floats
 
     names = table.column_names
     need = ("gnss_x", "gnss_y", "gnss_z")
@@ -290,11 +290,11 @@ def smooth_session(table: pa.Table, meta: dict, **options: object) -> TrackResul
             "run gps2hill first"
         )
     t = floats(table, "t")
-    pos = np.column_stack([floats(table, c) for c in need])
+    pos = float_columns(table, need)
     fix = floats(table, "gnss_fix") if "gnss_fix" in names else None
     sigma = None
     if all(f"std_gnss_{a}" in names for a in "xyz"):
-        sigma = np.column_stack([floats(table, f"std_gnss_{a}") for a in "xyz"])
+        sigma = float_columns(table, [f"std_gnss_{a}" for a in "xyz"])
     elif "gnss_sigma_h" in names:
         sh = floats(table, "gnss_sigma_h")
         sv = floats(table, "gnss_sigma_v") if "gnss_sigma_v" in names else sh
