@@ -7,19 +7,19 @@ leaves a half-written output.
 
 from __future__ import annotations
 
-import io as _io
 import os
 import sys
-import tempfile
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import pyarrow as pa
-import pyarrow.parquet as pq
 
 from sportfusion.core import meta as _meta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+
+if TYPE_CHECKING:
+    from pyarrow._parquet import FileMetaData
 
 PARQUET_MAGIC = b"PAR1"
 
@@ -45,11 +45,64 @@ def table_from_bytes(data: bytes, *, what: str = "input") -> pa.Table:
             f"{what} is not a Parquet file (no PAR1 magic); expected a table written by a sportfusion tool"
         )
     try:
-        pf = pq.ParquetFile(_io.BytesIO(data))  # not pq.read_table: that imports pyarrow.dataset and pandas (0.25 s)
-        check_declared_size(pf.metadata, len(data), what)
-        return pf.read(use_threads=False)
+        metadata, read = _parquet_reader(data)
+        check_declared_size(metadata, len(data), what)
+        return read()
     except (pa.ArrowException, OSError) as exc:
         raise InputError(f"{what} is not a readable Parquet file ({_first_line(str(exc))})") from exc
+
+
+# pyarrow.parquet is a Python layer over the compiled module pyarrow._parquet; importing it also imports
+# pyarrow.fs (the S3, GCS, Azure and HDFS file systems, and ssl): ~30 ms of CPU in every command, which
+# reads and writes in-memory buffers only.  The two functions below call the compiled reader and writer
+# the way pyarrow.parquet.ParquetFile / write_table do, and take pyarrow.parquet itself where a pyarrow
+# version's compiled module does not take these arguments (tests/test_io.py compares the two).
+
+
+def _compiled_parquet() -> Any:
+    """pyarrow's compiled Parquet module (``pyarrow._parquet``)."""
+    from pyarrow import _parquet
+
+    return _parquet
+
+
+def _parquet_reader(data: bytes) -> tuple[FileMetaData, Any]:
+    """The footer's metadata of Parquet bytes, and a function that reads the whole table (one thread)."""
+    buf = pa.BufferReader(data)
+    try:
+        reader = _compiled_parquet().ParquetReader()
+        reader.open(buf, use_memory_map=False)
+    except (ImportError, TypeError, AttributeError):  # another pyarrow's compiled API: its Python layer
+        import pyarrow.parquet as pq  # not pq.read_table: that imports pyarrow.dataset and pandas (0.25 s)
+
+        pf = pq.ParquetFile(buf)
+        return pf.metadata, lambda: pf.read(use_threads=False)
+    return reader.metadata, lambda: reader.read_all(use_threads=False)
+
+
+def _write_parquet(table: pa.Table, sink: pa.NativeFile, **options: Any) -> None:
+    """``pyarrow.parquet.write_table(table, sink, **options)`` with its defaults, one row group."""
+    try:
+        writer = _compiled_parquet().ParquetWriter(
+            sink,
+            table.schema,
+            version="2.6",
+            write_statistics=True,
+            writer_engine_version="V2",
+            data_page_version="1.0",
+            use_compliant_nested_type=True,
+            store_schema=True,
+            **options,
+        )
+    except (ImportError, TypeError, AttributeError, ValueError):
+        import pyarrow.parquet as pq
+
+        pq.write_table(table, sink, **options)
+        return
+    try:
+        writer.write_table(table, row_group_size=None)
+    finally:
+        writer.close()
 
 
 def _first_line(text: str) -> str:
@@ -64,7 +117,7 @@ MAX_TABLE_BYTES = 4 * 1024**3
 MAX_TABLE_RATIO = 1000.0
 
 
-def check_declared_size(md: pq.FileMetaData, file_size: int, what: str = "input") -> None:
+def check_declared_size(md: FileMetaData, file_size: int, what: str = "input") -> None:
     """Refuse a Parquet file whose footer declares a table too big to read, or absurdly bigger than the file."""
     try:
         cap = float(os.environ.get("SPORTFUSION_MAX_TABLE_BYTES", MAX_TABLE_BYTES))
@@ -233,7 +286,7 @@ def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
     # exponent bytes; on a 1e6-row spline-smooth output 2.7x faster to write, 14 % smaller, 2.7x faster to read
     # zstd's fast level -1 (the format's standard zstd; only the encoder's effort differs): on the same 1e6-row
     # output 0.33 s instead of 0.42 s to write, 0.5 % larger, read as fast or faster
-    pq.write_table(
+    _write_parquet(
         table,
         sink,
         compression="zstd",
@@ -270,6 +323,8 @@ def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[st
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"cannot write {dest}: the folder {folder} does not exist")
+    import tempfile  # here: only a write to a path needs it
+
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     except OSError as exc:
