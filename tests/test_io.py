@@ -243,3 +243,55 @@ def test_reading_and_writing_a_table_leaves_pyarrow_fs_unimported(tmp_path):
     out = subprocess.run([sys.executable, "-c", prog], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
     assert sfio.read_table(tmp_path / "out.parquet")[0].num_rows == 20
+
+
+def test_write_table_streams_the_same_bytes_to_a_stream_a_path_and_stdout(tmp_path, capsysbinary):
+    """write_table encodes into its destination page by page: the bytes are table_to_bytes' everywhere."""
+    meta = sfmeta.new_meta("session", 1_700_000_000.0)
+    table = _mixed_table(3000)
+    want = sfio.table_to_bytes(table, meta)
+    stream = io.BytesIO()
+    sfio.write_table(table, meta, stream)
+    assert stream.getvalue() == want
+    sfio.write_table(table, meta, tmp_path / "out.parquet")
+    assert (tmp_path / "out.parquet").read_bytes() == want
+    sfio.write_table(table, meta, None)
+    assert capsysbinary.readouterr().out == want
+
+
+def test_a_failure_while_encoding_leaves_the_output_file_untouched(tmp_path, monkeypatch):
+    dest = tmp_path / "out.parquet"
+    dest.write_bytes(b"old")
+
+    def half(table, meta, sink):
+        sink.write(b"PAR1 half a file")
+        raise MemoryError("while encoding")
+
+    monkeypatch.setattr(sfio, "encode_table", half)
+    with pytest.raises(MemoryError):
+        sfio.write_table(_table(), sfmeta.new_meta(), dest)
+    assert dest.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["out.parquet"]  # no temp file left
+
+
+def test_a_reader_that_stops_early_is_a_broken_pipe_for_the_writer():
+    """The encoder writes into stdout as it goes: a downstream reader that exits early (``| head``) raises
+    BrokenPipeError in the writer (what the commands catch: exit 1, no traceback), not an Arrow error."""
+    import subprocess
+    import sys
+
+    prog = (
+        "import sys, numpy as np, pyarrow as pa\n"
+        "from sportfusion.core import io, meta\n"
+        "t = pa.table({'t': np.arange(200000) * 0.01, 'acc_x': np.random.default_rng(1).normal(size=200000)})\n"
+        "try:\n"
+        "    io.write_table(t, meta.new_meta('session', 1.7e9), None)\n"
+        "except BaseException as exc:\n"
+        "    print(type(exc).__name__, file=sys.stderr)\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", prog], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert p.stdout.read(4) == b"PAR1"
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    p.wait(timeout=60)
+    assert err.strip().splitlines()[0] == "BrokenPipeError", err

@@ -67,7 +67,7 @@ class Tool:
         return table, meta
 
     def write(self, table: pa.Table, meta: dict[str, Any], params: dict[str, Any] | None = None) -> None:
-        """Append this tool's provenance step and write the table (built whole, then written).
+        """Append this tool's provenance step and write the table (complete before the encoder writes it).
 
         NaN/inf in a column this tool made (an estimate) is written as null, counted on stderr.
         """
@@ -83,7 +83,7 @@ class Tool:
             worst = max(counts.values())
             self.info(f"{worst} row(s) have no finite estimate in {', '.join(sorted(counts))}: written as null")
         step = dict(self.params if params is None else params)
-        sfio.write_table(table, sfmeta.add_provenance(meta, self.name, step), self.output)  # one buffer, no copy
+        sfio.write_table(table, sfmeta.add_provenance(meta, self.name, step), self.output)  # encoded into the output
 
     # -- messages -----------------------------------------------------
     def info(self, message: str) -> None:

@@ -1,8 +1,10 @@
 """Read and write tables: bytes <-> :class:`pyarrow.Table`, metadata attached in one place.
 
-Parquet is read whole (pipes cannot seek).  Writing to a file goes through a
-temporary file in the same folder and an atomic rename, so a failed run never
-leaves a half-written output.
+Parquet is read whole (pipes cannot seek).  A table is written once it is
+complete, encoded page by page straight into its destination (no copy of the
+whole file in memory); writing to a file goes through a temporary file in the
+same folder and an atomic rename, so a failed run never leaves a half-written
+output file.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from pyarrow._parquet import FileMetaData
 
 PARQUET_MAGIC = b"PAR1"
@@ -270,8 +274,8 @@ def finalize(table: pa.Table, meta: dict[str, Any]) -> pa.Table:
     return pa.Table.from_arrays(table.columns, schema=pa.schema(fields, metadata=md))
 
 
-def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
-    """Serialise a table with its metadata to a Parquet buffer (zstd), without copying it to ``bytes``.
+def encode_table(table: pa.Table, meta: dict[str, Any], sink: pa.NativeFile) -> None:
+    """Encode a table with its metadata as Parquet (zstd) into ``sink``, page by page as it is encoded.
 
     Dictionary encoding is asked for on the non-float columns only: on float
     columns (sensor samples, estimates) it never pays, and trying it costs more
@@ -281,7 +285,6 @@ def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
     table = finalize(table, meta)
     dictionary = [f.name for f in table.schema if not pa.types.is_floating(f.type)]
     floats_ = [f.name for f in table.schema if pa.types.is_floating(f.type)]
-    sink = pa.BufferOutputStream()
     # float columns byte-stream-split (Parquet's BYTE_STREAM_SPLIT encoding): zstd then finds the repeated
     # exponent bytes; on a 1e6-row spline-smooth output 2.7x faster to write, 14 % smaller, 2.7x faster to read
     # zstd's fast level -1 (the format's standard zstd; only the encoder's effort differs): on the same 1e6-row
@@ -294,6 +297,13 @@ def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
         use_dictionary=dictionary,
         use_byte_stream_split=floats_,
     )
+
+
+def table_to_buffer(table: pa.Table, meta: dict[str, Any]) -> pa.Buffer:
+    """Serialise a table with its metadata to a Parquet buffer (zstd, :func:`encode_table`), without copying
+    it to ``bytes``."""
+    sink = pa.BufferOutputStream()
+    encode_table(table, meta, sink)
     return sink.getvalue()
 
 
@@ -312,12 +322,18 @@ def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[st
     """Write bytes (or any buffer) to stdout (``None``/``"-"``), a stream, or atomically to a path."""
     if isinstance(data, pa.Buffer):
         data = memoryview(data)
+    _write_to(dest, lambda fh: fh.write(data))
+
+
+def _write_to(dest: str | os.PathLike[str] | BinaryIO | None, write: Callable[[BinaryIO], object]) -> None:
+    """Call ``write(fh)`` on stdout (``None``/``"-"``, flushed), on a stream, or on a temporary file in the
+    folder of a path that replaces the path once ``write`` returns (a failure leaves the path untouched)."""
     if dest is None or dest == "-":
-        sys.stdout.buffer.write(data)
+        write(sys.stdout.buffer)
         sys.stdout.buffer.flush()
         return
     if not isinstance(dest, (str, os.PathLike)):
-        dest.write(data)
+        write(dest)
         return
     path = Path(dest)
     folder = path.parent if str(path.parent) else Path(".")
@@ -332,7 +348,7 @@ def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[st
     try:
         os.fchmod(fd, 0o666 & ~_umask())  # mkstemp makes 0600; an output file gets the usual permissions
         with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
+            write(fh)
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
@@ -343,5 +359,14 @@ def write_bytes(data: bytes | memoryview | pa.Buffer, dest: str | os.PathLike[st
 
 
 def write_table(table: pa.Table, meta: dict[str, Any], dest: str | os.PathLike[str] | BinaryIO | None = None) -> None:
-    """Write a table with its metadata as Parquet to ``dest`` (stdout by default)."""
-    write_bytes(table_to_buffer(table, meta), dest)
+    """Write a table with its metadata as Parquet to ``dest`` (stdout by default; a path atomically).
+
+    The encoder writes into ``dest`` page by page: no copy of the whole file is built in memory first (at
+    1e6 rows x 25 columns that copy and its growth cost about as much CPU as the encoding).  The table
+    itself is complete before anything is written.
+    """
+
+    def encode(fh: BinaryIO) -> None:
+        encode_table(table, meta, pa.PythonFile(fh, mode="w"))  # the writer closes the stream's Parquet, not fh
+
+    _write_to(dest, encode)
