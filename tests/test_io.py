@@ -295,3 +295,41 @@ def test_a_reader_that_stops_early_is_a_broken_pipe_for_the_writer():
     err = p.stderr.read().decode()
     p.wait(timeout=60)
     assert err.strip().splitlines()[0] == "BrokenPipeError", err
+
+
+@pytest.mark.parametrize("engine", ["compiled", "pyarrow.parquet"])
+def test_an_interrupted_write_leaves_no_footer(engine, monkeypatch, capfd):
+    """Ctrl-C (or any failure) while the encoder writes into stdout: what reached the stream so far is not
+    closed with a Parquet footer, so the next stage refuses it instead of reading part of a table."""
+    import gc
+    from types import SimpleNamespace
+
+    if engine == "pyarrow.parquet":
+
+        class Refuses:
+            def __init__(self, *_a, **_k):
+                raise TypeError("unexpected keyword argument")
+
+        monkeypatch.setattr(sfio, "_compiled_parquet", lambda: SimpleNamespace(ParquetWriter=Refuses))
+
+    class Interrupted(io.BytesIO):
+        calls = 0
+
+        def write(self, data):
+            self.calls += 1
+            if self.calls == 3:
+                raise KeyboardInterrupt
+            return super().write(data)
+
+    n = 300_000
+    rng = np.random.default_rng(0)
+    table = pa.table({"t": np.arange(n) * 0.01, "acc_x": rng.normal(size=n), "acc_y": rng.normal(size=n)})
+    sink = Interrupted()
+    with pytest.raises(KeyboardInterrupt):
+        sfio.write_table(table, sfmeta.new_meta("session", 1.7e9), sink)
+    gc.collect()  # the writer's destructor has run
+    written = sink.getvalue()
+    assert 0 < len(written) < 100_000 and written[-4:] != b"PAR1"
+    with pytest.raises(InputError, match="not a Parquet"):
+        sfio.table_from_bytes(written)
+    assert "Exception ignored" not in capfd.readouterr().err

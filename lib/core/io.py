@@ -58,7 +58,7 @@ def table_from_bytes(data: bytes, *, what: str = "input") -> pa.Table:
 
 # pyarrow.parquet is a Python layer over the compiled module pyarrow._parquet; importing it also imports
 # pyarrow.fs (the S3, GCS, Azure and HDFS file systems, and ssl): ~30 ms of CPU in every command, which
-# reads and writes in-memory buffers only.  The two functions below call the compiled reader and writer
+# reads in-memory buffers and writes into open files only.  The two functions below call the compiled reader and writer
 # the way pyarrow.parquet.ParquetFile / write_table do, and take pyarrow.parquet itself where a pyarrow
 # version's compiled module does not take these arguments (tests/test_io.py compares the two).
 
@@ -101,12 +101,16 @@ def _write_parquet(table: pa.Table, sink: pa.NativeFile, **options: Any) -> None
     except (ImportError, TypeError, AttributeError, ValueError):
         import pyarrow.parquet as pq
 
-        pq.write_table(table, sink, **options)
-        return
+        writer = pq.ParquetWriter(sink, table.schema, **options)
+    # not closed on a failure: closing writes the footer, which would make what was written so far look like
+    # a whole file (the compiled writer's destructor still tries: write_table abandons its stream first)
     try:
         writer.write_table(table, row_group_size=None)
-    finally:
-        writer.close()
+    except BaseException:
+        if hasattr(writer, "is_open"):  # pyarrow.parquet's writer: its __del__ would close it
+            writer.is_open = False
+        raise
+    writer.close()
 
 
 def _first_line(text: str) -> str:
@@ -367,6 +371,33 @@ def write_table(table: pa.Table, meta: dict[str, Any], dest: str | os.PathLike[s
     """
 
     def encode(fh: BinaryIO) -> None:
-        encode_table(table, meta, pa.PythonFile(fh, mode="w"))  # the writer closes the stream's Parquet, not fh
+        out = _Abandonable(fh)
+        try:
+            encode_table(table, meta, pa.PythonFile(out, mode="w"))  # the writer ends the Parquet, not fh
+        except BaseException:
+            out.abandoned = True  # nothing more reaches fh: no footer after a failure (a truncated file is refused)
+            raise
 
     _write_to(dest, encode)
+
+
+class _Abandonable:
+    """A write-only stream over ``fh`` that refuses every write once ``abandoned`` is set."""
+
+    def __init__(self, fh: BinaryIO) -> None:
+        self.fh, self.abandoned, self.closed = fh, False, False
+
+    def write(self, data: bytes) -> int:
+        if self.abandoned:
+            raise OSError("the output was abandoned after a failure")
+        return self.fh.write(data)
+
+    def flush(self) -> None:
+        if not self.abandoned:
+            self.fh.flush()
+
+    def writable(self) -> bool:
+        return True
+
+    def close(self) -> None:  # the caller's fh stays open
+        self.closed = True
