@@ -270,3 +270,62 @@ def test_simulated_wind_changes_the_flight_not_the_planned_length():
         return float(np.std(a - np.polyval(np.polyfit(t[fl], a, 3), t[fl])))
 
     assert flight_wiggle(windy) > 3 * flight_wiggle(calm)
+
+
+def test_after_rest_carries_the_attitude_forward_by_the_gyro():
+    """_after_rest moves the step-0 state to step r: the attitude turned by the bias-corrected gyro (scipy
+    composes the same piecewise-constant rotations), everything else as it is."""
+    from types import SimpleNamespace
+
+    from sportfusion.core.rotations import dcm_from_quat
+    from sportfusion.skijump.smoother import _after_rest
+
+    rng = np.random.default_rng(5)
+    t = np.arange(300) * 0.01
+    bias = np.array([0.01, -0.02, 0.005])
+    gyr = bias + np.column_stack([0.3 * np.sin(2 * t), 0.2 + 0 * t, -0.1 * np.cos(t)])
+    x0 = rng.normal(size=22)
+    q0 = rng.normal(size=4)
+    x0[6:10] = q0 / np.linalg.norm(q0)
+    x0[10:13] = bias
+    seg = SimpleNamespace(t=t, u=np.column_stack([gyr, np.zeros((t.size, 3))]))
+    r = 200
+    x = _after_rest(seg, x0, r)
+    turn = Rotation.identity()  # body r -> body 0
+    for k in range(r):
+        turn = turn * Rotation.from_rotvec((gyr[k] - bias) * (t[k + 1] - t[k]))
+    want = turn.as_matrix().T @ dcm_from_quat(x0[6:10])  # NED -> body at r
+    np.testing.assert_allclose(dcm_from_quat(x[6:10]), want, atol=1e-10)
+    assert x[6] >= 0.0
+    np.testing.assert_array_equal(np.delete(x, range(6, 10)), np.delete(x0, range(6, 10)))
+    # no rotation over the rest: the attitude is the step-0 one (up to sign)
+    seg.u[:, 0:3] = bias
+    q = _after_rest(seg, x0, r)[6:10]
+    assert np.degrees(quat_angle(q, x0[6:10])) < 1e-6
+
+
+def test_forward_start_runs_from_the_rests_end(jump, monkeypatch):
+    """With start_after_rest (the default) the forward run over the start window begins where the rest at the
+    gate ends; without it at the segment's first step.  Both then smooth the whole segment from step 0."""
+    from sportfusion.skijump import smoother as S
+
+    inp, cfg, _ = jump
+    hill = load_hill(HILL)
+    firsts = []
+    orig = S._run_fast
+
+    def spy(fast, seg, cfg_, hill_, x0, P0, smooth=True, *a, **k):
+        firsts.append((float(seg.t[0]), int(seg.t.size), bool(smooth)))
+        return orig(fast, seg, cfg_, hill_, x0, P0, smooth, *a, **k)
+
+    monkeypatch.setattr(S, "_run_fast", spy)
+    if S._fast_engine() is None:
+        pytest.skip("no compiled engine: the numpy path runs the same windows through ekf_rts")
+    rest_end = int(_initial_rest(inp, cfg).sum()) - 1
+    assert rest_end > 0
+    for after, start in ((True, inp.t[rest_end]), (False, inp.t[0])):
+        firsts.clear()
+        S.smooth_inputs(inp, hill, SmootherConfig(start_after_rest=after), keep_cov=False)
+        forward = [f for f in firsts if not f[2]]
+        assert len(forward) == 1 and forward[0][0] == start
+        assert any(f[2] and f[0] == inp.t[0] and f[1] == inp.t.size for f in firsts)

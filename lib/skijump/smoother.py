@@ -152,22 +152,30 @@ def _start_velocity(inp: SkiJumpInputs, x0: np.ndarray) -> None:
         x0[3:6] = m_bo(x0[6:10]) @ inp.vel[iv[0]]
 
 
-def _forward_start(seg: SkiJumpInputs, xf: np.ndarray, x0: np.ndarray) -> np.ndarray:
-    """The initial state re-linearised from a forward (EKF) run over the start window ``xf`` (m, 22).
+def _forward_start(seg: SkiJumpInputs, x_end: np.ndarray, k: int, x0: np.ndarray) -> np.ndarray:
+    """The initial state re-linearised from a forward (EKF) run over the start window ending at step ``k``.
 
     The parameters (biases, magnetometer scale) have no process noise (eq 22): their smoothed value at
-    step 0 is the filtered one at the window's end.  The attitude at step 0 is the filtered attitude at the
+    step 0 is the filtered one at the window's end (``x_end``, 22).  The attitude at step 0 is the filtered attitude at the
     window's end carried back by the gyro (bias-corrected by that estimate, :func:`body_to_start`): once the
     in-run has pinned the heading, this is what the smoothed pass over the window returns, at the cost of
     the forward run alone.  Position stays the first fix; the velocity is re-rotated.
     """
-    k = xf.shape[0] - 1
     x = x0.copy()
-    x[10:] = xf[k, 10:]
-    c = body_to_start(seg.t[: k + 1], seg.u[: k + 1, 0:3], xf[k, mdl.I_BG], last_only=True)
-    q = rotations.quat_from_dcm(c[-1] @ m_bo(xf[k, 6:10] / np.linalg.norm(xf[k, 6:10])))
+    x[10:] = x_end[10:]
+    c = body_to_start(seg.t[: k + 1], seg.u[: k + 1, 0:3], x_end[mdl.I_BG], last_only=True)
+    q = rotations.quat_from_dcm(c[-1] @ m_bo(x_end[6:10] / np.linalg.norm(x_end[6:10])))
     x[6:10] = q if q[0] >= 0 else -q
     _start_velocity(seg, x)
+    return x
+
+
+def _after_rest(seg: SkiJumpInputs, x0: np.ndarray, r: int) -> np.ndarray:
+    """``x0`` (step 0) at step ``r`` of the rest at the gate: the attitude turned by the bias-corrected gyro."""
+    x = x0.copy()
+    c = body_to_start(seg.t[: r + 1], seg.u[: r + 1, 0:3], x0[mdl.I_BG], last_only=True)  # body r -> body 0
+    q = rotations.quat_from_dcm(c[-1].T @ m_bo(x0[6:10] / np.linalg.norm(x0[6:10])))
+    x[6:10] = q if q[0] >= 0 else -q
     return x
 
 
@@ -412,9 +420,9 @@ def smooth_inputs(
     error of degrees leaves the EKF's linear regime (``bench/bench_rts_accuracy.py --init``).
     When the in-run alignment gave the attitude and ``cfg.start_pass`` is ``"forward"`` (the
     default), one forward EKF run over that window replaces the smoothed ones
-    (:func:`_forward_start`).  Then the GNSS latency is estimated on the whole segment's smoothed
-    pass and, with a known lever arm, the fixes are moved to the IMU; each correction costs one
-    more run.
+    (:func:`_forward_start`), from the rest's end with ``cfg.start_after_rest`` (:func:`_after_rest`).
+    Then the GNSS latency is estimated on the whole segment's smoothed pass and, with a known lever
+    arm, the fixes are moved to the IMU; each correction costs one more run.
     """
     fast = _fast_engine(prefer_native=engine in ("auto", "c")) if engine in ("auto", "numba", "c") else None
     if engine == "numba" and (fast is None or not fast.__name__.endswith("smoother_fast")):
@@ -481,7 +489,12 @@ def smooth_inputs(
             n_win = max(cfg.passes, 1) if win is seg else cfg.passes - 1
             done, it, change = None, 0, math.inf
             if win is not seg and aligned and cfg.start_pass == "forward":
-                x0 = _forward_start(seg, run(win, x0, smooth=False)[0], x0)
+                # from the rest's end: at rest the filter can only pull the heading towards the (hard-iron biased)
+                # magnetometer's.  20 paper-noise jumps: yaw 0.315 -> 0.256 deg (docs/speed.md); a third less run
+                r = int(_initial_rest(seg, cfg).sum()) - 1 if cfg.start_after_rest else 0
+                r = r if 0 < r < nw - 2 else 0
+                xw = run(_slice(seg, r, nw) if r else win, _after_rest(seg, x0, r) if r else x0, smooth=False)[0]
+                x0 = _forward_start(seg, xw[-1], nw - 1, x0)
                 n_win, it = 0, 0
             for it in range(n_win):
                 done = run(win, x0)

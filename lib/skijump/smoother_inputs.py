@@ -114,6 +114,9 @@ class SmootherConfig:
     # the run over the start window when the in-run alignment gave the attitude: "forward" (an EKF run; the
     # biases and the gyro-carried attitude at its end start the whole pass) or "smoothed" (a smoothed run)
     start_pass: str = "forward"
+    # the forward run starts where the rest at the gate ends (:func:`_initial_rest`; the initial state already
+    # holds what the rest tells: the gyro bias, gravity for the alignment), not at the segment's first step
+    start_after_rest: bool = True
     pass_tol_deg: float = 0.05
     pass_window: float = 15.0
     pass_after_takeoff: float = 3.0
