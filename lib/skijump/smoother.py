@@ -155,11 +155,11 @@ def _start_velocity(inp: SkiJumpInputs, x0: np.ndarray) -> None:
 def _forward_start(seg: SkiJumpInputs, x_end: np.ndarray, k: int, x0: np.ndarray) -> np.ndarray:
     """The initial state re-linearised from a forward (EKF) run over the start window ending at step ``k``.
 
-    The parameters (biases, magnetometer scale) have no process noise (eq 22): their smoothed value at
-    step 0 is the filtered one at the window's end (``x_end``, 22).  The attitude at step 0 is the filtered attitude at the
-    window's end carried back by the gyro (bias-corrected by that estimate, :func:`body_to_start`): once the
-    in-run has pinned the heading, this is what the smoothed pass over the window returns, at the cost of
-    the forward run alone.  Position stays the first fix; the velocity is re-rotated.
+    The parameters (biases, magnetometer scale) have no process noise (eq 22): their smoothed value at step 0
+    is the filtered one at the window's end (``x_end``, 22).  The attitude at step 0 is the filtered attitude
+    there carried back by the gyro (bias-corrected by that estimate, :func:`body_to_start`): once the in-run
+    has pinned the heading, this is what the smoothed pass over the window returns, at the cost of the
+    forward run alone.  Position stays the first fix; the velocity is re-rotated.
     """
     x = x0.copy()
     x[10:] = x_end[10:]
