@@ -10,8 +10,8 @@ from sportfusion.core.rotations import quat_angle
 from sportfusion.core.schema import floats
 from sportfusion.skijump.alignment import body_to_start, inrun_attitude
 from sportfusion.skijump.hillfile import load_hill
-from sportfusion.skijump.smoother import _initial_rest, initial_state
 from sportfusion.skijump.smoother_inputs import SmootherConfig, session_inputs
+from sportfusion.skijump.smoother_start import _initial_rest, initial_state
 
 HILL = "oberstdorf_hs106"
 
@@ -278,7 +278,7 @@ def test_after_rest_carries_the_attitude_forward_by_the_gyro():
     from types import SimpleNamespace
 
     from sportfusion.core.rotations import dcm_from_quat
-    from sportfusion.skijump.smoother import _after_rest
+    from sportfusion.skijump.smoother_start import _after_rest
 
     rng = np.random.default_rng(5)
     t = np.arange(300) * 0.01
