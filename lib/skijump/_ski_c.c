@@ -30,7 +30,7 @@
 /* a step's stored prediction (pred): T = Phi_top P (10 x N) and the upper triangle of P_k+1|k's kinematic block */
 #define NT (10 * N + 55)
 
-#if defined(__GNUC__)
+#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
 #define PREFETCH(p) __builtin_prefetch(p)
 #else
 #define PREFETCH(p) ((void)0)
@@ -60,7 +60,7 @@ static const double ZEROS[N];
 
 /* a function of its own, compiled for the baseline target (never fused into the AVX2/FMA clones): the results
    stay those of the previous builds to the last bit */
-#if defined(__GNUC__)
+#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
 __attribute__((noinline))
 #endif
 static void mbo(const double *q, double M[3][3]) {
@@ -422,6 +422,168 @@ HOT static void std_row(const double *x, double P[N][N], const double *mno, doub
     }
 }
 
+/* One step of the backward pass (eqs 17-21) once chol_solve has factored P_k+1|k (U, with U^-T (Phi P)[:, :10] in
+   its columns N..): the gain's kinematic rows Ct = C[:10]^T, the smoothed state xs from xf + C (xs1 - xp1) and the
+   smoothed covariance, written over Ps (P_k+1|n on entry, P_k|n on return: Pf + C (Ps - Pp) C^T, where C's other
+   rows are the identity's).  Pp is the whole prediction.  Two versions: with GCC's or Clang's vector types (the
+   products' accumulators held in registers), and plain C for other compilers (or -DSKI_PLAIN_C, which also drops
+   the other GNU attributes: the way to test that path with GCC).  They agree to ~1e-11 (the vector one solves the
+   triangular system by columns, so its sums run in another order). */
+#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
+typedef double v4 __attribute__((vector_size(32)));
+/* unaligned loads and stores of 4 doubles (through pointers: a vector argument or return value would change the
+   baseline clone's ABI) */
+static inline void load4(v4 *v, const double *p) { memcpy(v, p, sizeof(*v)); }
+static inline void store4(double *p, const v4 *v) { memcpy(p, v, sizeof(*v)); }
+/* rows of 10 as 3 vectors (the last two lanes zero), rows of 22 as 6 */
+HOT static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], double Ps[N][N], const double *xf,
+                            const double *xp1, const double *xs1, double *xs) {
+    v4 C[N][3], Dm[N][6], E[10][6];
+    const v4 z = {0.0, 0.0, 0.0, 0.0};
+    /* U Ct = U^-T Y by columns: each solved row taken off the rows above it (independent updates) */
+    for (int i = 0; i < N; i++) {
+        load4(&C[i][0], U[i] + N);
+        load4(&C[i][1], U[i] + N + 4);
+        C[i][2] = (v4){U[i][N + 8], U[i][N + 9], 0.0, 0.0};
+    }
+    for (int m = N - 1; m >= 0; m--) {
+        double d = 1.0 / U[m][m];
+        for (int b = 0; b < 3; b++) C[m][b] *= d;
+        for (int i = 0; i < m; i++) {
+            double a = U[i][m];
+            for (int b = 0; b < 3; b++) C[i][b] -= a * C[m][b];
+        }
+    }
+    /* xs = xf + C dx: the kinematic rows, then the parameters' (C's rows there are the identity's) */
+    v4 s[3] = {z, z, {xf[8], xf[9], 0.0, 0.0}};
+    load4(&s[0], xf);
+    load4(&s[1], xf + 4);
+    for (int m = 0; m < N; m++) {
+        double a = xs1[m] - xp1[m];
+        for (int b = 0; b < 3; b++) s[b] += C[m][b] * a;
+        if (m >= 10) xs[m] = xf[m] + a;
+    }
+    store4(xs, &s[0]);
+    store4(xs + 4, &s[1]);
+    xs[8] = s[2][0];
+    xs[9] = s[2][1];
+    for (int m = 0; m < N; m++) {
+        for (int b = 0; b < 5; b++) {
+            v4 a, c;
+            load4(&a, Ps[m] + 4 * b);
+            load4(&c, Pp[m] + 4 * b);
+            Dm[m][b] = a - c;
+        }
+        Dm[m][5] = (v4){Ps[m][20] - Pp[m][20], Ps[m][21] - Pp[m][21], 0.0, 0.0};
+    }
+    for (int i = 0; i < 10; i += 2) { /* E = C Dm, two rows at a time */
+        v4 e0[6], e1[6];
+        for (int b = 0; b < 6; b++) e0[b] = e1[b] = z;
+        for (int m = 0; m < N; m++) {
+            double a0 = C[m][i / 4][i % 4], a1 = C[m][(i + 1) / 4][(i + 1) % 4];
+            for (int b = 0; b < 6; b++) {
+                e0[b] += a0 * Dm[m][b];
+                e1[b] += a1 * Dm[m][b];
+            }
+        }
+        for (int b = 0; b < 6; b++) {
+            E[i][b] = e0[b];
+            E[i + 1][b] = e1[b];
+        }
+    }
+    for (int i = 0; i < 10; i += 2) { /* Pf + E C^T, two rows at a time; its upper triangle (Ps mirrors it) */
+        v4 s0[3], s1[3];
+        for (int b = 0; b < 3; b++) {
+            s0[b] = z;
+            s1[b] = z;
+            for (int l = 0; l < 4; l++) {
+                int j = 4 * b + l;
+                if (j >= i && j < 10) s0[b][l] = Pf[i][j];
+                if (j > i && j < 10) s1[b][l] = Pf[i + 1][j];
+            }
+        }
+        for (int m = 0; m < N; m++) {
+            double a0 = E[i][m / 4][m % 4], a1 = E[i + 1][m / 4][m % 4];
+            for (int b = 0; b < 3; b++) {
+                s0[b] += a0 * C[m][b];
+                s1[b] += a1 * C[m][b];
+            }
+        }
+        for (int j = i; j < 10; j++) {
+            Ps[i][j] = Ps[j][i] = s0[j / 4][j % 4];
+            if (j > i) Ps[i + 1][j] = Ps[j][i + 1] = s1[j / 4][j % 4];
+        }
+    }
+    for (int i = 0; i < 10; i++)
+        for (int j = 10; j < N; j++) Ps[i][j] = Ps[j][i] = Pf[i][j] + E[i][j / 4][j % 4];
+    for (int i = 10; i < N; i++)
+        for (int j = i; j < N; j++) Ps[i][j] = Ps[j][i] = Pf[i][j] + Dm[i][j / 4][j % 4];
+}
+#else
+static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], double Ps[N][N], const double *xf,
+                        const double *xp1, const double *xs1, double *xs) {
+    double Ct[N][10], Dm[N][N], E[10][N], dx[N];
+    for (int i = N - 1; i >= 0; i--) {
+        double v[10];
+        for (int j = 0; j < 10; j++) v[j] = U[i][N + j];
+        for (int m = i + 1; m < N; m++) {
+            double a = U[i][m];
+            for (int j = 0; j < 10; j++) v[j] -= a * Ct[m][j];
+        }
+        double d = 1.0 / U[i][i];
+        for (int j = 0; j < 10; j++) Ct[i][j] = v[j] * d;
+    }
+    for (int m = 0; m < N; m++) dx[m] = xs1[m] - xp1[m];
+    {
+        double s[10]; /* xs = xf + C dx over the kinematic rows, summed over m in order as vector updates */
+        for (int i = 0; i < 10; i++) s[i] = xf[i];
+        for (int m = 0; m < N; m++) {
+            double a = dx[m];
+            for (int i = 0; i < 10; i++) s[i] += Ct[m][i] * a;
+        }
+        for (int i = 0; i < 10; i++) xs[i] = s[i];
+    }
+    for (int i = 10; i < N; i++) xs[i] = xf[i] + dx[i];
+    for (int i = 0; i < N; i++)
+        for (int j = 0; j < N; j++) Dm[i][j] = Ps[i][j] - Pp[i][j];
+    for (int i = 0; i < 10; i++) {
+        double c[N]; /* E = C Dm, row i; the sums over m in two halves of constant length (unrolled) */
+        for (int m = 0; m < N; m++) c[m] = Ct[m][i];
+        for (int j = 0; j < N; j++) {
+            double v = 0.0;
+            for (int m = 0; m < N / 2; m++) v += c[m] * Dm[m][j];
+            for (int m = N / 2; m < N; m++) v += c[m] * Dm[m][j];
+            E[i][j] = v;
+        }
+    }
+    for (int i = 0; i < 10; i++) {
+        double s[10], e[N]; /* Pf + E C^T, row i */
+        for (int m = 0; m < N; m++) e[m] = E[i][m];
+        for (int j = 0; j < 10; j++) {
+            double v = Pf[i][j];
+            for (int m = 0; m < N / 2; m++) v += e[m] * Ct[m][j];
+            for (int m = N / 2; m < N; m++) v += e[m] * Ct[m][j];
+            s[j] = v;
+        }
+        for (int j = i; j < 10; j++) {
+            Ps[i][j] = s[j];
+            Ps[j][i] = s[j];
+        }
+        for (int j = 10; j < N; j++) {
+            double v = Pf[i][j] + E[i][j];
+            Ps[i][j] = v;
+            Ps[j][i] = v;
+        }
+    }
+    for (int i = 10; i < N; i++)
+        for (int j = i; j < N; j++) {
+            double v = Pf[i][j] + Dm[i][j];
+            Ps[i][j] = v;
+            Ps[j][i] = v;
+        }
+}
+#endif
+
 /* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
 HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
                       const double *mag, const double *inrun, const double *landing, const double *still,
@@ -554,8 +716,8 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     }
     if (!smooth) return -1;
     /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one (where write_ps) */
-    double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], Ct[N][10], Dm[N][N], E[10][N], U[N][NW];
-    double dx[N], xs[N], xs1[N], sd[NSTD]; /* xs1: the smoothed state of the step after (the previous iteration's) */
+    double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], U[N][NW];
+    double xs[N], xs1[N], sd[NSTD]; /* xs1: the smoothed state of the step after (the previous iteration's) */
     memcpy(xs1, x_filt + N * (n - 1), sizeof(xs1));
     put_row(x_s, ldx, n - 1, xs1, N);
     unpack(Pbuf + NP * (n - 1), Ps);
@@ -597,65 +759,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             *phase = 2;
             return k + 1;
         }
-        for (int i = N - 1; i >= 0; i--) {
-            double v[10];
-            for (int j = 0; j < 10; j++) v[j] = U[i][N + j];
-            for (int m = i + 1; m < N; m++) {
-                double a = U[i][m];
-                for (int j = 0; j < 10; j++) v[j] -= a * Ct[m][j];
-            }
-            double d = 1.0 / U[i][i];
-            for (int j = 0; j < 10; j++) Ct[i][j] = v[j] * d;
-        }
-        const double *xp1 = x_pred + N * (k + 1);
-        for (int m = 0; m < N; m++) dx[m] = xs1[m] - xp1[m];
-        {
-            double s[10]; /* xs = xf + C dx over the kinematic rows, summed over m in order as vector updates */
-            for (int i = 0; i < 10; i++) s[i] = xf[i];
-            for (int m = 0; m < N; m++) {
-                double a = dx[m];
-                for (int i = 0; i < 10; i++) s[i] += Ct[m][i] * a;
-            }
-            for (int i = 0; i < 10; i++) xs[i] = s[i];
-        }
-        for (int i = 10; i < N; i++) xs[i] = xf[i] + dx[i];
-        for (int i = 0; i < N; i++)
-            for (int j = 0; j < N; j++) Dm[i][j] = Ps[i][j] - Pp[i][j];
-        for (int i = 0; i < 10; i++) {
-            double c[N]; /* E = C Dm, row i; the sums over m in two halves of constant length (unrolled) */
-            for (int m = 0; m < N; m++) c[m] = Ct[m][i];
-            for (int j = 0; j < N; j++) {
-                double v = 0.0;
-                for (int m = 0; m < N / 2; m++) v += c[m] * Dm[m][j];
-                for (int m = N / 2; m < N; m++) v += c[m] * Dm[m][j];
-                E[i][j] = v;
-            }
-        }
-        for (int i = 0; i < 10; i++) {
-            double s[10], e[N]; /* Pf + E C^T, row i */
-            for (int m = 0; m < N; m++) e[m] = E[i][m];
-            for (int j = 0; j < 10; j++) {
-                double v = Pf[i][j];
-                for (int m = 0; m < N / 2; m++) v += e[m] * Ct[m][j];
-                for (int m = N / 2; m < N; m++) v += e[m] * Ct[m][j];
-                s[j] = v;
-            }
-            for (int j = i; j < 10; j++) {
-                Ps[i][j] = s[j];
-                Ps[j][i] = s[j];
-            }
-            for (int j = 10; j < N; j++) {
-                double v = Pf[i][j] + E[i][j];
-                Ps[i][j] = v;
-                Ps[j][i] = v;
-            }
-        }
-        for (int i = 10; i < N; i++)
-            for (int j = i; j < N; j++) {
-                double v = Pf[i][j] + Dm[i][j];
-                Ps[i][j] = v;
-                Ps[j][i] = v;
-            }
+        smooth_step(U, Pf, Pp, Ps, xf, x_pred + N * (k + 1), xs1, xs);
         if (write_ps) pack(Ps, Pbuf + NP * k);
         std_row(xs, Ps, mno, sd);
         put_row(x_s, ldx, k, xs, N);
