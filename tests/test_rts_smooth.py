@@ -433,3 +433,42 @@ def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
     cfg = SmootherConfig(p0_quat=0.0, r_c_q=0.0, passes=1, hill_constraints=False)
     with pytest.raises(InputError, match=r"step 0 \(t = 0\.000 s\)"):
         rts_smooth_table(tab.slice(0, 200), meta, hill, cfg, engine=engine)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_c_plain_backward_pass_agrees_with_the_vector_one(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The backward pass's plain C (what compilers without GCC's/Clang's vector types build; -DSKI_PLAIN_C
+    selects it here) gives the vector path's smoothed states, covariances and std rows to ~1e-11."""
+    import importlib.util
+    import shlex
+    import shutil
+    import subprocess
+    import sysconfig
+    from pathlib import Path
+
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother as R
+
+    ld = shlex.split(sysconfig.get_config_var("LDSHARED") or "")
+    if not ld or shutil.which(ld[0]) is None:
+        pytest.skip("no C compiler here")
+    src = Path(_ski_native.__file__).with_name("_ski_c.c")
+    so = tmp_path / ("_ski_c" + sysconfig.get_config_var("EXT_SUFFIX"))
+    flags = shlex.split(sysconfig.get_config_var("CCSHARED") or "")
+    cmd = [*ld, *flags, "-O2", "-DSKI_PLAIN_C", "-I" + sysconfig.get_paths()["include"], str(src), "-o", str(so)]
+    build = subprocess.run([*cmd, "-lm"], capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    spec = importlib.util.spec_from_file_location("sportfusion.skijump._ski_c", so)
+    plain = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(plain)
+
+    tab, meta, hill, cfg, inp, x0, P0 = _first_900_rows()
+    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
+    monkeypatch.setattr(_ski_native, "_NATIVE", plain)
+    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
+    np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)  # (other flags: the last bits differ)
+    np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a[2], b[2], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(a[4], b[4], rtol=1e-7, atol=1e-12)
+    assert np.abs(a[1] - b[1]).max() > 0  # two builds, not one twice
