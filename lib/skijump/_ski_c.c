@@ -47,6 +47,22 @@
 #define HOT
 #endif
 
+/* GCC's and Clang's vector types: the hot products' accumulators held in registers (GCC spills plain arrays of
+   them to the stack).  Other compilers, or -DSKI_PLAIN_C (which also drops the other GNU attributes: the way to
+   test that path with GCC), build plain C loops instead; the two agree to ~1e-11 (some sums run in another
+   order). */
+#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
+#define SKI_VEC 1
+typedef double v4 __attribute__((vector_size(32)));
+static const v4 V4_ZERO = {0.0, 0.0, 0.0, 0.0};
+/* unaligned loads and stores of 4 doubles (through pointers: a vector argument or return value would change the
+   baseline clone's ABI) */
+static inline void load4(v4 *v, const double *p) { memcpy(v, p, sizeof(*v)); }
+static inline void store4(double *p, const v4 *v) { memcpy(p, v, sizeof(*v)); }
+#else
+#define SKI_VEC 0
+#endif
+
 /* the columns of A (and of Phi - I) that can be nonzero */
 #define A_LO 3
 #define A_HI 16
@@ -228,24 +244,41 @@ static inline void outer_blocks(double T[10][N], double P[N][N], double out[N][N
 HOT static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10], double out[N][N], double T[10][N]) {
     double PhiT[A_HI][10];
     for (int i = 0; i < 10; i++) {
-        double f[A_HI];
-        for (int m = A_LO; m < A_HI; m++) f[m] = Phi[i][m];
-        for (int j = 0; j < N; j++) {
-            double s = i < 3 ? P[i][j] : 0.0;
-            for (int m = A_LO; m < A_HI; m++) s += f[m] * P[m][j];
-            T[i][j] = s;
+#if SKI_VEC
+        /* a row of 22 as 6 vectors, the last one's 2 extra lanes read from the next row (m <= 15) and dropped */
+        v4 s[6], r;
+        for (int b = 0; b < 6; b++) {
+            s[b] = V4_ZERO;
+            if (i < 3) load4(&s[b], P[i] + 4 * b);
         }
+        for (int m = A_LO; m < A_HI; m++) {
+            double a = Phi[i][m];
+            for (int b = 0; b < 6; b++) {
+                load4(&r, P[m] + 4 * b);
+                s[b] += a * r;
+            }
+        }
+        for (int b = 0; b < 5; b++) store4(T[i] + 4 * b, &s[b]);
+        T[i][20] = s[5][0];
+        T[i][21] = s[5][1];
+#else
+        double s[N];
+        for (int j = 0; j < N; j++) s[j] = i < 3 ? P[i][j] : 0.0;
+        for (int m = A_LO; m < A_HI; m++) {
+            double a = Phi[i][m];
+            for (int j = 0; j < N; j++) s[j] += a * P[m][j];
+        }
+        memcpy(T[i], s, sizeof(s));
+#endif
     }
     for (int m = A_LO; m < A_HI; m++)
         for (int j = 0; j < 10; j++) PhiT[m][j] = Phi[j][m];
     for (int i = 0; i < 10; i++) {
-        double s[10], f[A_HI];
-        for (int m = A_LO; m < A_HI; m++) f[m] = T[i][m];
-        for (int j = 0; j < 10; j++) {
-            double v = Qd[i][j];
-            if (j < 3) v += T[i][j];
-            for (int m = A_LO; m < A_HI; m++) v += f[m] * PhiT[m][j];
-            s[j] = v;
+        double s[10];
+        for (int j = 0; j < 10; j++) s[j] = Qd[i][j] + (j < 3 ? T[i][j] : 0.0);
+        for (int m = A_LO; m < A_HI; m++) {
+            double a = T[i][m];
+            for (int j = 0; j < 10; j++) s[j] += a * PhiT[m][j];
         }
         for (int j = i; j < 10; j++) {
             out[i][j] = s[j];
@@ -425,21 +458,14 @@ HOT static void std_row(const double *x, double P[N][N], const double *mno, doub
 /* One step of the backward pass (eqs 17-21) once chol_solve has factored P_k+1|k (U, with U^-T (Phi P)[:, :10] in
    its columns N..): the gain's kinematic rows Ct = C[:10]^T, the smoothed state xs from xf + C (xs1 - xp1) and the
    smoothed covariance, written over Ps (P_k+1|n on entry, P_k|n on return: Pf + C (Ps - Pp) C^T, where C's other
-   rows are the identity's).  Pp is the whole prediction.  Two versions: with GCC's or Clang's vector types (the
-   products' accumulators held in registers), and plain C for other compilers (or -DSKI_PLAIN_C, which also drops
-   the other GNU attributes: the way to test that path with GCC).  They agree to ~1e-11 (the vector one solves the
-   triangular system by columns, so its sums run in another order). */
-#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
-typedef double v4 __attribute__((vector_size(32)));
-/* unaligned loads and stores of 4 doubles (through pointers: a vector argument or return value would change the
-   baseline clone's ABI) */
-static inline void load4(v4 *v, const double *p) { memcpy(v, p, sizeof(*v)); }
-static inline void store4(double *p, const v4 *v) { memcpy(p, v, sizeof(*v)); }
+   rows are the identity's).  Pp is the whole prediction.  The vector version (SKI_VEC) solves the triangular
+   system by columns: its sums run in another order than the plain one's. */
+#if SKI_VEC
 /* rows of 10 as 3 vectors (the last two lanes zero), rows of 22 as 6 */
 HOT static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], double Ps[N][N], const double *xf,
                             const double *xp1, const double *xs1, double *xs) {
     v4 C[N][3], Dm[N][6], E[10][6];
-    const v4 z = {0.0, 0.0, 0.0, 0.0};
+    const v4 z = V4_ZERO;
     /* U Ct = U^-T Y by columns: each solved row taken off the rows above it (independent updates) */
     for (int i = 0; i < N; i++) {
         load4(&C[i][0], U[i] + N);
