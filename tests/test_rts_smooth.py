@@ -472,3 +472,18 @@ def test_c_plain_backward_pass_agrees_with_the_vector_one(tmp_path, monkeypatch:
     np.testing.assert_allclose(a[2], b[2], rtol=0, atol=1e-10)
     np.testing.assert_allclose(a[4], b[4], rtol=1e-7, atol=1e-12)
     assert np.abs(a[1] - b[1]).max() > 0  # two builds, not one twice
+
+
+def test_residual_rms_over_the_updates_made() -> None:
+    """residual_rms: the RMS over the finite entries of each block (np.nanmean's), blocks never updated left out."""
+    from sportfusion.skijump.smoother_outputs import residual_rms
+
+    rng = np.random.default_rng(3)
+    whole = rng.normal(size=(500, 5))
+    whole[rng.random((500, 5)) < 0.7] = np.nan
+    whole[:, 4] = np.nan
+    res = {"a": whole[:, 0:1], "b": whole[:, 1:4], "never": whole[:, 4:5]}
+    got = residual_rms(res)
+    assert set(got) == {"a", "b"}
+    for k in ("a", "b"):
+        assert got[k] == pytest.approx(float(np.sqrt(np.nanmean(res[k] ** 2))), rel=1e-13)

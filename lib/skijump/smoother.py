@@ -70,6 +70,7 @@ from sportfusion.skijump.smoother_outputs import (  # noqa: F401  (re-exported: 
     _std_from_cov,
     constraint_residuals,
     euler_jacobian,
+    residual_rms,
 )
 from sportfusion.skijump.smoother_start import (  # noqa: F401  (_initial_rest re-exported for tests)
     _after_rest,
@@ -584,7 +585,7 @@ def rts_smooth_table(
         "passes": res.passes,
         "gnss_latency_s": res.gnss_latency,
         "mag_field_ned": inp.m_o.tolist(),
-        "residual_rms": {k: float(np.sqrt(np.nanmean(v**2))) for k, v in res.residuals.items() if np.isfinite(v).any()},
+        "residual_rms": residual_rms(res.residuals),
     }
     # the IMU's own stops (logging paused between jumps: independent segments) are not GNSS gaps
     pauses = [(inp.t[a - 1], inp.t[a]) for a, _ in segments(inp.t, cfg.max_gap)[1:]]

@@ -172,3 +172,26 @@ def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -
     out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
     out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)
     return out
+
+
+def residual_rms(residuals: dict[str, np.ndarray]) -> dict[str, float]:
+    """RMS of each residual block over its finite entries (NaN where a step had no such update).
+
+    Parameters
+    ----------
+    residuals : dict of str to array, shape (n, w)
+        The smoother's residuals by update (units of the update: m, m/s, µT, 1).
+
+    Returns
+    -------
+    dict of str to float
+        Only the blocks with at least one update.
+    """
+    out = {}
+    for k, v in residuals.items():
+        s = np.square(v)
+        m = ~np.isnan(s)  # one pass for the mask, one for the sum: no copy with NaN zeroed (np.nanmean)
+        n = np.count_nonzero(m)
+        if n:
+            out[k] = math.sqrt(float(np.sum(s, where=m)) / n)
+    return out
