@@ -40,6 +40,36 @@ def test_dcm_quat_round_trip_including_half_turns():
     np.testing.assert_allclose(back, R.quat_canonical(q), atol=1e-12)
 
 
+def test_one_item_is_the_stack_to_the_bit():
+    """dcm_from_quat, quat_from_dcm and m_bo on one item (Python floats) give the stacked path's numbers exactly:
+    every Shepperd case, half turns, ties between the candidates, matrices that are no rotation, NaN."""
+    from sportfusion.skijump.kinematics import m_bo
+
+    raw = np.vstack(
+        [RNG.standard_normal((300, 4)), np.eye(4), [[0.0, 0.5, 0.5, 0.5]], 1e-3 * RNG.standard_normal((5, 4))]
+    )
+    for f in (R.dcm_from_quat, m_bo):
+        stack = f(raw)
+        np.testing.assert_array_equal(np.array([f(q) for q in raw]), stack)
+    mats = np.concatenate(
+        [
+            R.dcm_from_quat(raw),
+            RNG.standard_normal((300, 3, 3)),
+            np.diag([1.0, 1.0, 1.0])[None],
+            np.diag([-1.0, -1.0, 1.0])[None],
+            np.diag([1.0, -1.0, -1.0])[None],
+            np.diag([-1.0, 1.0, -1.0])[None],
+            np.diag([-1.0, -1.0, -1.0])[None],  # no rotation: a tie between three candidates
+            np.zeros((1, 3, 3)),
+            np.full((1, 3, 3), np.nan),
+        ]
+    )
+    stack = R.quat_from_dcm(mats)
+    one = np.array([R.quat_from_dcm(m) for m in mats])
+    np.testing.assert_array_equal(one, stack)  # NaN where NaN
+    assert np.isnan(one[-1]).all()
+
+
 def test_euler_matches_eqs_54_56_and_scipy_zyx():
     roll, pitch, yaw = R.euler_from_quat(Q)
     q0, q1, q2, q3 = Q.T

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from sportfusion.core.rotations import dcm_entries
+
 __all__ = ["STATE", "INPUT", "m_bo", "m_no", "f", "rk4_step", "propagate", "state_from_nav"]
 
 #: Names of the state components, in order.
@@ -50,18 +52,9 @@ def m_bo(q: np.ndarray) -> np.ndarray:
     array, shape (..., 3, 3)
     """
     q = np.asarray(q, dtype=float)
-    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    m = np.empty(q.shape[:-1] + (3, 3))
-    m[..., 0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-    m[..., 0, 1] = 2 * (q1 * q2 + q0 * q3)
-    m[..., 0, 2] = 2 * (q1 * q3 - q0 * q2)
-    m[..., 1, 0] = 2 * (q1 * q2 - q0 * q3)
-    m[..., 1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-    m[..., 1, 2] = 2 * (q2 * q3 + q0 * q1)
-    m[..., 2, 0] = 2 * (q0 * q2 + q1 * q3)
-    m[..., 2, 1] = 2 * (q2 * q3 - q0 * q1)
-    m[..., 2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-    return m
+    if q.shape == (4,):  # one quaternion: on Python floats
+        return dcm_entries(*q.tolist(), single=True)
+    return dcm_entries(q[..., 0], q[..., 1], q[..., 2], q[..., 3])
 
 
 def m_no(psi_n: float) -> np.ndarray:
