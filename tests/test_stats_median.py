@@ -1,4 +1,4 @@
-"""core.stats.median: numpy.median's answer (the independent reference) without importing numpy.ma."""
+"""core.stats: median is numpy.median's answer (the independent reference) without importing numpy.ma; finite_rows."""
 
 from __future__ import annotations
 
@@ -61,3 +61,17 @@ def test_unique_equals_numpy() -> None:
         assert got.dtype == want.dtype
         np.testing.assert_array_equal(got, want)
     assert unique([3, 1, 3]).tolist() == [1, 3]
+
+
+def test_finite_rows_is_isfinite_all_along_rows() -> None:
+    from sportfusion.core.stats import finite_rows
+
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=(1000, 6))
+    a[rng.random(a.shape) < 0.05] = np.nan
+    a[::97, 4] = np.inf
+    a[::89, 0] = -np.inf
+    for x in (a, np.asfortranarray(a), a[:, 1:2], a[:, ::2], np.empty((5, 0)), a[:0]):
+        got = finite_rows(x)
+        assert got.dtype == bool
+        np.testing.assert_array_equal(got, np.isfinite(x).all(axis=1))

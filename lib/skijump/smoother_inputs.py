@@ -33,7 +33,7 @@ from sportfusion.core.magdisturb import mag_disturbed
 from sportfusion.core.magfield import reference_field
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.session import validate_time
-from sportfusion.core.stats import median
+from sportfusion.core.stats import finite_rows, median
 from sportfusion.core.windows import window_mean_std
 from sportfusion.skijump.events import gnss_speed
 from sportfusion.skijump.hillfile import Hill
@@ -425,14 +425,14 @@ def session_inputs(
     if missing:
         raise InputError(f"missing column(s) {', '.join(missing)}; expected IMU data (gyroscope and accelerometer)")
     imu = schema.float_columns(table, IMU_COLUMNS)
-    ok = np.isfinite(imu).all(axis=1)
+    ok = finite_rows(imu)
     if ok.sum() < 10:
         raise InputError("the IMU columns hold fewer than 10 complete samples; expected a recorded IMU")
     rows = np.flatnonzero(ok)
     t = t_rows[rows]
     u = imu if rows.size == imu.shape[0] else imu[rows]
     frame, pos_rows = _hill_frame(table, meta, hill)
-    pos_ok = np.isfinite(pos_rows).all(axis=1)
+    pos_ok = finite_rows(pos_rows)
     if not pos_ok.any():
         raise InputError("no GNSS position in the session; expected GNSS fixes (gnss_x/y/z or lat/lon/h)")
     _check_hill_near(pos_rows[pos_ok], hill)
@@ -441,19 +441,19 @@ def session_inputs(
         raise InputError("no GNSS fix falls within the IMU recording; expected overlapping GNSS and IMU data")
     if set(VEL_COLUMNS) <= set(table.column_names):
         v_rows = schema.float_columns(table, VEL_COLUMNS)
-        vel = _to_steps(t_rows, np.isfinite(v_rows).all(axis=1), v_rows, t)
+        vel = _to_steps(t_rows, finite_rows(v_rows), v_rows, t)
     else:
         vel = np.full((t.size, 3), np.nan)
     if set(MAG_COLUMNS) <= set(table.column_names):
         m_rows = schema.float_columns(table, MAG_COLUMNS)
-        mag = _to_steps(t_rows, np.isfinite(m_rows).all(axis=1), m_rows, t)
+        mag = _to_steps(t_rows, finite_rows(m_rows), m_rows, t)
     else:
         mag = np.full((t.size, 3), np.nan)
     # magnetic disturbances (core.magdisturb): skipped.  The raw magnetometer is not calibrated (the smoother
     # estimates its bias and scale), so the reference strength is the median of each IMU segment (between
     # logging pauses; a phone may recalibrate its magnetometer between two recordings), not the model's.
     disturbed = np.zeros(t.size, dtype=bool)
-    okm = np.isfinite(mag).all(axis=1)
+    okm = finite_rows(mag)
     for a, b in segments(t, cfg.max_gap):
         sel = np.flatnonzero(okm[a:b]) + a
         if sel.size > 10:
