@@ -288,13 +288,13 @@ HOT static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10]
     outer_blocks(T, P, out);
 }
 
-/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite.  Reads and
-   updates P's upper triangle only (P is symmetric: mirror() restores the lower one before it is read) */
-HOT static int scalar(double *x, double P[N][N], const double *xp, const double *h, double r0, double var) {
+/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite.  h's entries
+   that can be nonzero are nz[0..cnt) (ascending; the caller knows them: an entry that happens to be 0 adds exact
+   zeros).  Reads and updates P's upper triangle only (P is symmetric: mirror() restores the lower one before it is
+   read) */
+HOT static int scalar(double *x, double P[N][N], const double *xp, const double *h, const int *nz, int cnt, double r0,
+                      double var) {
     double Ph[N];
-    int nz[N], cnt = 0;
-    for (int i = 0; i < N; i++)
-        if (h[i] != 0.0) nz[cnt++] = i;
     double r = r0;
     for (int c = 0; c < cnt; c++) r -= h[nz[c]] * (x[nz[c]] - xp[nz[c]]);
     ZERO(Ph);
@@ -610,6 +610,10 @@ static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], doubl
 }
 #endif
 
+/* the entries of each update's h that can be nonzero (scalar()'s nz): the quaternion norm, the GNSS velocity
+   (body velocity and quaternion), the in-run and landing heights (x and z), the in-run's lateral position */
+static const int NZ_Q[4] = {6, 7, 8, 9}, NZ_V[7] = {3, 4, 5, 6, 7, 8, 9}, NZ_H[2] = {0, 2}, NZ_Y[1] = {1};
+
 /* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
 HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
                       const double *mag, const double *inrun, const double *landing, const double *still,
@@ -641,14 +645,14 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         ZERO(h);
         for (int i = 0; i < 4; i++) h[6 + i] = xp[6 + i] / nq;
         rk[0] = -(nq - 1.0);
-        if (!scalar(x, P, xp, h, -(nq - 1.0), rcq)) return k;
+        if (!scalar(x, P, xp, h, NZ_Q, 4, -(nq - 1.0), rcq)) return k;
         if (isfinite(pos[3 * k])) {
             for (int i = 0; i < 3; i++) {
                 ZERO(h);
                 h[i] = 1.0;
                 double r0 = pos[3 * k + i] - xp[i];
                 rk[1 + i] = r0;
-                if (!scalar(x, P, xp, h, r0, rpos[i])) return k;
+                if (!scalar(x, P, xp, h, &i, 1, r0, rpos[i])) return k;
             }
         }
         if (use_vel && isfinite(vel[3 * k])) {
@@ -664,7 +668,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 for (int kk = 0; kk < 4; kk++) h[6 + kk] = D[kk][0][i] * xp[3] + D[kk][1][i] * xp[4] + D[kk][2][i] * xp[5];
                 double r0 = vel[3 * k + i] - hv;
                 rk[4 + i] = r0;
-                if (!scalar(x, P, xp, h, r0, rvel[i])) return k;
+                if (!scalar(x, P, xp, h, NZ_V, 7, r0, rvel[i])) return k;
             }
         }
         if (use_mag && isfinite(mag[3 * k])) {
@@ -680,7 +684,8 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 h[19 + i] = mb;
                 double r0 = mag[3 * k + i] - (s * mb + xp[16 + i]);
                 rk[7 + i] = r0;
-                if (!scalar(x, P, xp, h, r0, rmag)) return k;
+                const int nzm[6] = {6, 7, 8, 9, 16 + i, 19 + i};
+                if (!scalar(x, P, xp, h, nzm, 6, r0, rmag)) return k;
             }
         }
         if (use_hill) {
@@ -691,11 +696,11 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[10] = z - xp[2];
-                if (!scalar(x, P, xp, h, z - xp[2], rir)) return k;
+                if (!scalar(x, P, xp, h, NZ_H, 2, z - xp[2], rir)) return k;
                 ZERO(h);
                 h[1] = 1.0;
                 rk[11] = -xp[1];
-                if (!scalar(x, P, xp, h, -xp[1], rhir)) return k;
+                if (!scalar(x, P, xp, h, NZ_Y, 1, -xp[1], rhir)) return k;
             }
             if (landing[k] > 0.0) {
                 profile(xp[0], la_x0, la_step, laz, ladz, nla, &z, &dz);
@@ -703,7 +708,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[12] = z - xp[2];
-                if (!scalar(x, P, xp, h, z - xp[2], rla / landing[k])) return k;
+                if (!scalar(x, P, xp, h, NZ_H, 2, z - xp[2], rla / landing[k])) return k;
             }
         }
         if (still[k] > 0.0) { /* zero velocity: v_B = 0 */
@@ -711,7 +716,8 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
                 ZERO(h);
                 h[3 + i] = 1.0;
                 rk[13 + i] = -xp[3 + i];
-                if (!scalar(x, P, xp, h, -xp[3 + i], rzu / still[k])) return k;
+                const int nzv = 3 + i;
+                if (!scalar(x, P, xp, h, &nzv, 1, -xp[3 + i], rzu / still[k])) return k;
             }
         }
         if (!pd_diag(P)) return k;
