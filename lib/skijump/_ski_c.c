@@ -633,7 +633,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
     Py_ssize_t ldx = (Py_ssize_t)par[23], lds = (Py_ssize_t)par[25]; /* x_s, std: 0 row-major, else column-major */
     double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
     double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
-    double x[N], xn[N], xp[N], h[N];
+    double x[N], xn[N], xp[N], h[N]; /* h: each update sets and scalar() reads only the entries it names */
     memcpy(x, x0, sizeof(x));
     memcpy(Pa, P0, sizeof(Pa));
     *phase = 0;
@@ -642,13 +642,11 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         memcpy(xp, x, sizeof(xp));
         if (keep) memcpy(x_pred + N * k, xp, sizeof(xp));
         double nq = sqrt(xp[6] * xp[6] + xp[7] * xp[7] + xp[8] * xp[8] + xp[9] * xp[9]);
-        ZERO(h);
         for (int i = 0; i < 4; i++) h[6 + i] = xp[6 + i] / nq;
         rk[0] = -(nq - 1.0);
         if (!scalar(x, P, xp, h, NZ_Q, 4, -(nq - 1.0), rcq)) return k;
         if (isfinite(pos[3 * k])) {
             for (int i = 0; i < 3; i++) {
-                ZERO(h);
                 h[i] = 1.0;
                 double r0 = pos[3 * k + i] - xp[i];
                 rk[1 + i] = r0;
@@ -659,7 +657,6 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             mbo(xp + 6, M);
             dmdq(xp + 6, D);
             for (int i = 0; i < 3; i++) {
-                ZERO(h);
                 double hv = 0.0;
                 for (int j = 0; j < 3; j++) {
                     h[3 + j] = M[j][i];
@@ -675,7 +672,6 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             mbo(xp + 6, M);
             dmdq(xp + 6, D);
             for (int i = 0; i < 3; i++) {
-                ZERO(h);
                 double mb = M[i][0] * m_o[0] + M[i][1] * m_o[1] + M[i][2] * m_o[2];
                 double s = 1.0 + xp[19 + i];
                 for (int kk = 0; kk < 4; kk++)
@@ -692,19 +688,16 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             double z, dz;
             if (inrun[k] != 0.0) {
                 profile(xp[0], ir_x0, ir_step, irz, irdz, nir, &z, &dz);
-                ZERO(h);
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[10] = z - xp[2];
                 if (!scalar(x, P, xp, h, NZ_H, 2, z - xp[2], rir)) return k;
-                ZERO(h);
                 h[1] = 1.0;
                 rk[11] = -xp[1];
                 if (!scalar(x, P, xp, h, NZ_Y, 1, -xp[1], rhir)) return k;
             }
             if (landing[k] > 0.0) {
                 profile(xp[0], la_x0, la_step, laz, ladz, nla, &z, &dz);
-                ZERO(h);
                 h[0] = -dz;
                 h[2] = 1.0;
                 rk[12] = z - xp[2];
@@ -713,7 +706,6 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
         }
         if (still[k] > 0.0) { /* zero velocity: v_B = 0 */
             for (int i = 0; i < 3; i++) {
-                ZERO(h);
                 h[3 + i] = 1.0;
                 rk[13 + i] = -xp[3 + i];
                 const int nzv = 3 + i;
