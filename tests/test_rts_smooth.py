@@ -437,9 +437,11 @@ def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not _native_built(), reason="C extension not built")
-def test_c_plain_backward_pass_agrees_with_the_vector_one(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The backward pass's plain C (what compilers without GCC's/Clang's vector types build; -DSKI_PLAIN_C
-    selects it here) gives the vector path's smoothed states, covariances and std rows to ~1e-11."""
+@pytest.mark.parametrize("flag", ["-DSKI_PLAIN_C", "-DSKI_NO_CLONES"])
+def test_c_other_builds_agree_with_this_one(flag: str, tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The loop built as other compilers and CPUs get it -- plain C without GCC's/Clang's vector types
+    (-DSKI_PLAIN_C), the vector types on the baseline x86-64 alone (-DSKI_NO_CLONES: no AVX2/FMA clone) --
+    gives this build's filtered and smoothed states, covariances and std rows to ~1e-11."""
     import importlib.util
     import shlex
     import shutil
@@ -456,16 +458,16 @@ def test_c_plain_backward_pass_agrees_with_the_vector_one(tmp_path, monkeypatch:
     src = Path(_ski_native.__file__).with_name("_ski_c.c")
     so = tmp_path / ("_ski_c" + sysconfig.get_config_var("EXT_SUFFIX"))
     flags = shlex.split(sysconfig.get_config_var("CCSHARED") or "")
-    cmd = [*ld, *flags, "-O2", "-DSKI_PLAIN_C", "-I" + sysconfig.get_paths()["include"], str(src), "-o", str(so)]
+    cmd = [*ld, *flags, "-O2", flag, "-I" + sysconfig.get_paths()["include"], str(src), "-o", str(so)]
     build = subprocess.run([*cmd, "-lm"], capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     spec = importlib.util.spec_from_file_location("sportfusion.skijump._ski_c", so)
-    plain = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(plain)
+    other = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(other)
 
     tab, meta, hill, cfg, inp, x0, P0 = _first_900_rows()
     a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
-    monkeypatch.setattr(_ski_native, "_NATIVE", plain)
+    monkeypatch.setattr(_ski_native, "_NATIVE", other)
     b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
     np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)  # (other flags: the last bits differ)
     np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-9)
