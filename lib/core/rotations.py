@@ -193,8 +193,8 @@ def quat_from_dcm(m: np.ndarray) -> np.ndarray:
 
 def _quat_from_dcm_one(m: np.ndarray) -> np.ndarray | None:
     """:func:`quat_from_dcm` of one matrix on Python floats: the same case and the same operations (the same
-    result to the bit, ~30x less overhead).  None where it would divide by zero or meets NaN (the general path
-    then gives numpy's answer)."""
+    result to the last bit, ~30x less overhead).  None where it would divide by zero or meets NaN (the general
+    path then gives numpy's answer)."""
     (r00, r10, r20), (r01, r11, r21), (r02, r12, r22) = m.tolist()  # R = M_BO^T
     tr = r00 + r11 + r22
     cand = (tr, r00, r11, r22)
