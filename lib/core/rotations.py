@@ -37,6 +37,7 @@ __all__ = [
     "quat_multiply",
     "quat_conjugate",
     "dcm_from_quat",
+    "dcm_entries",
     "quat_from_dcm",
     "euler_from_quat",
     "quat_from_euler",
