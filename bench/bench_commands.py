@@ -13,7 +13,7 @@ and the peer measured in this same run:
    starts, imports, reads the same table and writes one with the same 25 columns (no spline).
 3. ``pf-holds`` on a 35 s climbing trial: times real time.
 4. Start-up: every command's ``--help`` and a no-op stage (``inspect`` on a 20-row table) against
-   ``python -c "import numpy, pyarrow"`` (the floor), best of 3.
+   ``python -c "import numpy, pyarrow"`` with one BLAS thread as the commands set it (the floor), best of 3.
 
 rts-smooth and pf-holds are run 5 times each: the minimum is the figure, the median is printed beside it
 (identical runs of a ~1 s command spread by up to 1.6x on a shared machine).
@@ -51,6 +51,16 @@ p = subprocess.Popen(sys.argv[2:])
 _, status, ru = os.wait4(p.pid, 0)
 with open(sys.argv[1], "w") as f:
     f.write(f"{ru.ru_utime + ru.ru_stime} {time.perf_counter() - t0} {ru.ru_maxrss * 1024} {os.waitstatus_to_exitcode(status)}")
+"""
+
+
+#: the start-up floor: ``import numpy, pyarrow`` with one BLAS thread, as every command runs
+#: (``tools/__init__.py``): OpenBLAS's threads would otherwise add their start-up to the floor's CPU time
+FLOOR = """
+import os
+for v in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+    os.environ.setdefault(v, "1")
+import numpy, pyarrow
 """
 
 
@@ -258,7 +268,7 @@ def startup(folder: Path) -> None:
     from sportfusion.core.meta import new_meta
 
     print("== start-up: --help of every command and a no-op stage vs `python -c 'import numpy, pyarrow'` (best of 3)")
-    floor = best([sys.executable, "-c", "import numpy, pyarrow"])
+    floor = best([sys.executable, "-c", FLOOR])
     print(f"  {'floor':<22} {floor[0]:.3f} s CPU {floor[1]:.3f} s wall")
     worst = 0.0
     for c in COMMANDS:
