@@ -72,10 +72,9 @@ from sportfusion.skijump.smoother_outputs import (  # noqa: F401  (re-exported: 
     euler_jacobian,
     residual_rms,
 )
-from sportfusion.skijump.smoother_start import (  # noqa: F401  (_initial_rest re-exported for tests)
+from sportfusion.skijump.smoother_start import (  # noqa: F401  (initial_state re-exported: tests, bench)
     _after_rest,
     _forward_start,
-    _initial_rest,
     initial_state,
 )
 
@@ -352,7 +351,7 @@ def smooth_inputs(
                 f"the IMU segment {seg.t[0]:.2f}-{seg.t[-1]:.2f} s has no GNSS fix (or a single sample); "
                 "expected GNSS during every recorded stretch"
             )
-        x0, P0, aligned = initial_state(seg, cfg, with_source=True)
+        x0, P0, aligned, n_rest = initial_state(seg, cfg, with_source=True)
         # the window that needs re-linearising: the start up to the in-run's end (the first take-off in
         # the segment plus pass_after_takeoff), at least pass_window seconds
         t_end = seg.t[0] + cfg.pass_window
@@ -392,7 +391,7 @@ def smooth_inputs(
             if win is not seg and aligned and cfg.start_pass == "forward":
                 # from the rest's end: at rest the filter can only pull the heading towards the (hard-iron biased)
                 # magnetometer's.  20 paper-noise jumps: yaw 0.315 -> 0.256 deg (docs/speed.md); a third less run
-                r = int(_initial_rest(seg, cfg).sum()) - 1 if cfg.start_after_rest else 0
+                r = n_rest - 1 if cfg.start_after_rest else 0
                 r = r if 0 < r < nw - 2 else 0
                 xw = run(_slice(seg, r, nw) if r else win, _after_rest(seg, x0, r) if r else x0, smooth=False)[0]
                 x0 = _forward_start(seg, xw[-1], nw - 1, x0)

@@ -47,10 +47,12 @@ def _initial_rest(inp: SkiJumpInputs, cfg: SmootherConfig) -> np.ndarray:
 
 def initial_state(
     inp: SkiJumpInputs, cfg: SmootherConfig, with_source: bool = False
-) -> tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, bool]:
+) -> tuple[np.ndarray, np.ndarray] | tuple[np.ndarray, np.ndarray, bool, int]:
     """Paper §4.1: first GNSS fix, QUEST attitude from the rest at the start, gyro bias its mean rate; Table 3 P0.
 
-    ``with_source``: also return whether the attitude came from the in-run alignment (True) or the rest.
+    ``with_source``: also return whether the attitude came from the in-run alignment (True) or the rest, and
+    the rest's length [steps] (:func:`_initial_rest`, a run of steps from step 0: where the forward start's
+    run begins).
     """
     x0 = np.zeros(mdl.N)
     ip = int(np.flatnonzero(np.isfinite(inp.pos[:, 0]))[0])
@@ -89,7 +91,7 @@ def initial_state(
         ]
     )
     P0 = np.diag(np.asarray(p, float) ** 2)
-    return (x0, P0, qa is not None) if with_source else (x0, P0)
+    return (x0, P0, qa is not None, int(w.sum())) if with_source else (x0, P0)
 
 
 def _start_velocity(inp: SkiJumpInputs, x0: np.ndarray) -> None:
