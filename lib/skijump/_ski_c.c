@@ -30,7 +30,15 @@
 /* a step's stored prediction (pred): T = Phi_top P (10 x N) and the upper triangle of P_k+1|k's kinematic block */
 #define NT (10 * N + 55)
 
+/* GCC's and Clang's extensions (prefetches, noinline, vector types); -DSKI_PLAIN_C builds without them, as other
+   compilers do: the way to test that path with GCC */
 #if defined(__GNUC__) && !defined(SKI_PLAIN_C)
+#define SKI_GNU 1
+#else
+#define SKI_GNU 0
+#endif
+
+#if SKI_GNU
 #define PREFETCH(p) __builtin_prefetch(p)
 #else
 #define PREFETCH(p) ((void)0)
@@ -48,10 +56,9 @@
 #endif
 
 /* GCC's and Clang's vector types: the hot products' accumulators held in registers (GCC spills plain arrays of
-   them to the stack).  Other compilers, or -DSKI_PLAIN_C (which also drops the other GNU attributes: the way to
-   test that path with GCC), build plain C loops instead; the two agree to ~1e-11 (some sums run in another
+   them to the stack).  Without SKI_GNU, plain C loops instead; the two agree to ~1e-11 (some sums run in another
    order). */
-#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
+#if SKI_GNU
 #define SKI_VEC 1
 typedef double v4 __attribute__((vector_size(32)));
 static const v4 V4_ZERO = {0.0, 0.0, 0.0, 0.0};
@@ -76,7 +83,7 @@ static const double ZEROS[N];
 
 /* a function of its own, compiled for the baseline target (never fused into the AVX2/FMA clones): the results
    stay those of the previous builds to the last bit */
-#if defined(__GNUC__) && !defined(SKI_PLAIN_C)
+#if SKI_GNU
 __attribute__((noinline))
 #endif
 static void mbo(const double *q, double M[3][3]) {
