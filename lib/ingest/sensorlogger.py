@@ -39,7 +39,9 @@ Location
     ``gnss_speed`` and ``bearing`` -> ``gnss_course`` (negative: invalid ->
     null), ``vel_n``/``vel_e`` from the two; ``horizontalAccuracy`` (radius of
     the 68 % circle) -> ``gnss_sigma_h`` = accuracy / 1.5096 as for phyphox;
-    ``verticalAccuracy`` -> ``gnss_sigma_v`` (negative or zero: null).
+    ``verticalAccuracy`` -> ``gnss_sigma_v`` (negative or zero: null).  A
+    negative horizontal accuracy (iOS: the fix is invalid) nulls latitude and
+    longitude, a negative vertical accuracy the heights.
 
 ``Barometer.csv`` ``pressure`` [mbar] -> ``pressure`` [Pa].  Other files
 (uncalibrated sensors, orientation, compass, watch, battery, ...) are named
@@ -157,7 +159,7 @@ def _xyz(table: pa.Table, what: str) -> np.ndarray:
     return np.column_stack([floats(table, a) for a in "xyz"])
 
 
-def _location(table: pa.Table) -> dict[str, object]:
+def _location(table: pa.Table, ios: bool = False) -> dict[str, object]:
     names = set(table.column_names)
     cols: dict[str, object] = {}
 
@@ -176,7 +178,8 @@ def _location(table: pa.Table) -> dict[str, object]:
     if "speed" in names:
         cols["gnss_speed"] = valid("speed")
     if "bearing" in names:
-        cols["gnss_course"] = valid("bearing")
+        course = valid("bearing")
+        cols["gnss_course"] = np.where(course < 360, course, np.nan)
     if "speed" in names and "bearing" in names:
         speed, course = np.asarray(cols["gnss_speed"]), np.radians(np.asarray(cols["gnss_course"]))
         course = np.where(speed == 0.0, np.where(np.isfinite(course), course, 0.0), course)
@@ -184,8 +187,16 @@ def _location(table: pa.Table) -> dict[str, object]:
         cols["vel_e"] = speed * np.sin(course)
     if "horizontalaccuracy" in names:
         cols["gnss_sigma_h"] = valid("horizontalaccuracy", True) / ACCURACY_68_TO_SIGMA
+        bad = ios & (floats(table, "horizontalaccuracy") < 0)  # iOS: latitude and longitude are invalid
+        for c in ("lat", "lon"):
+            if c in cols:
+                cols[c] = np.where(bad, np.nan, np.asarray(cols[c], float))
     if "verticalaccuracy" in names:
         cols["gnss_sigma_v"] = valid("verticalaccuracy", True)
+        bad = ios & (floats(table, "verticalaccuracy") < 0)  # iOS: the altitude is invalid
+        for c in ("h", "h_msl"):
+            if c in cols:
+                cols[c] = np.where(bad, np.nan, np.asarray(cols[c], float))
     return cols
 
 
@@ -286,7 +297,7 @@ def read(path: Path, opts: Options) -> Recording:
             Stream("Barometer", times("barometer"), {"pressure": floats(tables["barometer"], "pressure") * 100.0})
         )
     if "location" in tables:
-        cols = _location(tables["location"])
+        cols = _location(tables["location"], ios=platform == "ios")
         if cols:
             streams.append(Stream("Location", times("location"), cols))
     if not streams:
