@@ -193,10 +193,11 @@ def stall_fixes(t: np.ndarray, y: np.ndarray, speed: np.ndarray, sigma: np.ndarr
 
     A watch or phone that loses its fix keeps reporting the last position for some seconds while the
     athlete moves on, then jumps to the true position (60 m in one second after a 13 s stall).  A
-    *catch-up* is a step longer than the speed allows (as in :func:`speed_spikes`) that no step back
-    undoes; the fixes before it whose own steps moved less than a third of what the speed says
-    (``speed dt > 1 m``) are the frozen ones.  Only they are flagged: a real stop (speed near 0) or a
-    stop without a catch-up step is left alone.
+    *catch-up* is a step longer than the speed allows (as in :func:`speed_spikes`); the fixes before it
+    whose own steps repeated the position (under 5 cm) or moved less than a third of what the speed says
+    (``speed dt > 1 m``) are the frozen ones, flagged when the speed integrated over them and the step is
+    at least half the step (the step catches up what the stall missed; a stall that ends in a stop is
+    caught too).  A real stop, or a stop without a catch-up step, is left alone.
     """
     n = t.size
     bad = np.zeros(n, bool)
@@ -211,12 +212,16 @@ def stall_fixes(t: np.ndarray, y: np.ndarray, speed: np.ndarray, sigma: np.ndarr
     vmax = np.fmax(sp[1:], sp[:-1])
     allowed = vmax * dt * 1.2 + 1.0 * dt + 4.0 * np.sqrt(2.0) * np.fmax(sg[1:], sg[:-1])
     expect = np.fmax(sp[1:], sp[:-1]) * dt
-    frozen = np.isfinite(expect) & (expect > 1.0) & (d < expect / 3.0)
+    # a frozen step: the position repeated (a stall repeats the last fix), or far less than the speed says
+    frozen = (d < 0.05) | (np.isfinite(expect) & (expect > 1.0) & (d < expect / 3.0))
+    travel = np.nan_to_num(0.5 * (sp[1:] + sp[:-1])) * dt
     for a in np.flatnonzero(np.isfinite(vmax) & (d > allowed)):
         i = a
         while i > 0 and frozen[i - 1]:
             i -= 1
-        if i < a:
+        # the catch-up step must be what the speed says the frozen stretch travelled (a stall that ends in a
+        # stop is caught too; a jump with no frozen stretch before it is left to the other screens)
+        if i < a and travel[i : a + 1].sum() > 0.5 * d[a]:
             bad[i + 1 : a + 1] = True
     return bad
 

@@ -59,7 +59,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.meta import epoch_unix
 from sportfusion.core.rotations import ned_to_local
 from sportfusion.core.stats import median
-from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, smoothing_spline
+from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, gcv_lambda, smoothing_spline
 from sportfusion.estimators.spline_gaps import gap_std
 from sportfusion.estimators.spline_robust import robust_weights
 
@@ -213,7 +213,14 @@ def smooth_track(
             )
             rw[a:b] = rws
             ws = ws * rws[:, None]
-        fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss))
+        if lam is None and robust and (rw[a:b] < 0.1).any() and (rw[a:b] >= 0.1).sum() >= 4:
+            # GCV chooses lambda on the fixes the robust screen kept: a weighted-down outlier still counts in
+            # GCV's trace and pulls its choice towards interpolation, which then follows the outliers
+            keep = rw[a:b] >= 0.1
+            lam_axes = [gcv_lambda(tk[a:b][keep], yk[a:b][keep, c], ws[keep, c]) for c in range(3)]
+            fits.append(_fit_axes(tk[a:b], yk[a:b], ws, lam_axes, segments, ss))
+        else:
+            fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss))
     if robust:
         n_out = int(np.sum(rw < 0.1))
         if n_out:
@@ -368,6 +375,24 @@ def _consumer_speed_distance(
     dist = np.r_[0.0, np.cumsum(step)] + (h_arc[0] if tr.size else 0.0)
     speed = np.sqrt(d1[:, 0] ** 2 + d1[:, 1] ** 2 + np.interp(tr, grid, vzs) ** 2)
     return speed, dist
+
+
+def _fit_axes(t, y, w, lams, segments, sigma):
+    """:func:`smoothing_spline` of each column with its own lambda, assembled into one fit."""
+    from sportfusion.estimators.spline import NaturalCubicSpline, SplineFit
+
+    parts = [
+        smoothing_spline(t, y[:, c], w[:, c], lams[c], segments=segments, sigma=None if sigma is None else sigma[:, c])
+        for c in range(y.shape[1])
+    ]
+    std = None if any(p.std is None for p in parts) else np.column_stack([p.std[:, 0] for p in parts])
+    return SplineFit(
+        NaturalCubicSpline(t, np.column_stack([p.spline.g[:, 0] for p in parts]),
+                           np.column_stack([p.spline.gamma[:, 0] for p in parts])),
+        np.array([p.lam[0] for p in parts]),
+        np.array([p.penalty[0] for p in parts]),
+        std,
+    )  # fmt: skip
 
 
 def _describe_gap(t0: float, t1: float, epoch_utc: float | None) -> str:
