@@ -180,7 +180,7 @@ def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
     if ev.exists():
         st, _ = sfio.read_table(ev, kind="summary")
         row["pos_rms"] = _rms_3d(st, ("x", "y", "z"))
-        row["vel_rms"] = _rms_3d(st, ("vel_n", "vel_e", "vel_d"))
+        row["vel_rms"] = _rms_3d(st, ("vx", "vy", "vz") if "vx" in st.column_names else ("vel_n", "vel_e", "vel_d"))
     return row
 
 
