@@ -12,7 +12,13 @@ from sportfusion.tools._cli import Tool, tool
 
 
 def _side(path: str | None, kind: str) -> tuple | None:
-    return sfio.read_table(path, kind=kind) if path else None
+    if not path:
+        return None
+    if kind in ("gates", "holds"):  # a venue: also a CSV or a plain Parquet file (docs/table-contract.md)
+        from sportfusion.core.venue import read_venue
+
+        return read_venue(path, kind)
+    return sfio.read_table(path, kind=kind)
 
 
 @tool(
@@ -56,13 +62,14 @@ def _side(path: str | None, kind: str) -> tuple | None:
     "--gates",
     "gates_path",
     type=click.Path(exists=True, dir_okay=False),
-    help="Gate survey (gates table: gate, x, y, z [m]) for the course figure (gates).",
+    help="Gate survey (gates table: gate, x, y, z [m]; also a CSV or plain Parquet) for the course figure (gates).",
 )
 @click.option(
     "--holds",
     "holds_path",
     type=click.Path(exists=True, dir_okay=False),
-    help="Hold map (holds table: route, hold, x, y, z [m]) for the wall figure (climbing).",
+    help="Hold map (holds table: route, hold, x, y, z [m]; also a CSV or plain Parquet) for the wall figure "
+    "(climbing).",
 )
 def main(
     tool: Tool,
