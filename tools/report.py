@@ -109,7 +109,7 @@ def main(
             sport=sport,
             title=title,
             jumps=jumps[0] if jumps else None,
-            evaluation=evaluation[0] if evaluation else None,
+            evaluation=evaluation,
             gates=gates[0] if gates else None,
             holds=holds,
         )
