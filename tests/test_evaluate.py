@@ -81,7 +81,7 @@ def test_known_errors_are_returned(truth):
         assert ev.stats["all"]["mean"][name] == pytest.approx(val, abs=1e-12)
         assert ev.stats["all"]["rms"][name] == pytest.approx(abs(val), abs=1e-12)
     assert not {"vel_n", "vel_e", "vel_d"} & set(ev.variables)
-    assert ev.frame == "hill frame (x along azimuth 312.6 deg, y right, z down)"
+    assert ev.frame == f"hill frame ({tmeta['frame']['axes']}; x at azimuth 312.6 deg)"
     # the paper's Table 6 velocity (NED, v_O) on request: the same error rotated by the azimuth
     az = math.radians(tmeta["frame"]["azimuth_deg"])
     dn = D_VEL_HILL[0] * math.cos(az) - D_VEL_HILL[1] * math.sin(az)

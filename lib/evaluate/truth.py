@@ -107,8 +107,8 @@ def frame_label(meta: dict[str, Any]) -> str:
         return "local frame"
     name = str(frame.get("name") or "local")
     az = frame.get("azimuth_deg")
-    axes = "y right, z down"
-    return f"{name} frame (x along azimuth {float(az):.1f} deg, {axes})" if az is not None else f"{name} frame"
+    axes = str(frame.get("axes") or "x forward, y right, z down")
+    return f"{name} frame ({axes}; x at azimuth {float(az):.1f} deg)" if az is not None else f"{name} frame ({axes})"
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
