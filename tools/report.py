@@ -81,10 +81,13 @@ def main(
     gates_path: str | None,
     holds_path: str | None,
 ) -> None:
-    """Write one HTML page a coach can open on a phone or print: the headline figures (jump length,
-    take-off speed and flight time; run time, distance and speeds, per-turn speeds; holds reached) with
-    units, the trajectory over the venue, the time series with their 1-sigma bands, the accuracy against
-    a truth when --evaluation is given, and the provenance folded at the end.  Given a batch summary
+    """Write one HTML page a coach can open on a phone or print: the headline figures with their units
+    (jump length [m], take-off speed [m/s, km/h], flight time [s], max height [m]; moving time [s] and
+    moving mean speed [m/s] (speed >= 1 m/s), distance [m], max speed, gates matched of the survey and
+    per-turn speeds with the reason a turn is missing; holds reached, hold certainty [%]), the trajectory
+    over the venue, the time series with their 1-sigma bands, the accuracy against a truth when
+    --evaluation is given (angles in degrees), folded: the analyst's part (sensor biases, full errors,
+    provenance) and "Reading the report" (docs/reading-the-report.md).  Given a batch summary
     (python -m sportfusion.batch, make batch), it writes the batch's index page instead: one row per
     session, failed sessions with their error line, links to OUT/<name>/report.html where they exist."""
     table, meta = tool.read(kind=("session", "summary"))

@@ -40,6 +40,7 @@ caption { text-align: left; color: var(--muted); font-size: 0.9rem; padding: 0.2
 th, td { border-bottom: 1px solid var(--line); padding: 0.3rem 0.4rem; text-align: right; }
 td { white-space: nowrap; }
 td.text { white-space: normal; }
+td.words { text-align: left; }
 th:first-child, td:first-child { text-align: left; }
 .num { white-space: nowrap; }
 .scroll { overflow-x: auto; }
@@ -95,9 +96,10 @@ def number(value: float | None, unit: str, digits: int = 2) -> str:
     """``"25.83 m/s"``; a dash where there is no finite value (never "nan"); ``°`` follows the number."""
     if value is None or not math.isfinite(float(value)):
         return "–"
+    v = float(value) if round(float(value), digits) != 0 else 0.0  # no "-0.000"
     if unit == DEG:
-        return f"{float(value):.{digits}f}{DEG}"
-    return f"{float(value):.{digits}f} {unit}".strip()
+        return f"{v:.{digits}f}{DEG}"
+    return f"{v:.{digits}f} {unit}".strip()
 
 
 def kmh(value_ms: float | None) -> str:
@@ -146,7 +148,7 @@ def table(
     head = "".join(f'<th scope="col">{esc(h)}</th>' for h in headers)
 
     def td(k: int, v: Any) -> str:
-        cls = " ".join(c for c in ("text" if k in text_columns else "", "empty" if v in ("", "–") else "") if c)
+        cls = " ".join(c for c in ("text words" if k in text_columns else "", "empty" if v in ("", "–") else "") if c)
         return f'<td data-label="{esc(headers[k])}"{f" class={chr(34)}{cls}{chr(34)}" if cls else ""}>{cell(v)}</td>'
 
     body = "".join("<tr>" + "".join(td(k, v) for k, v in enumerate(r)) + "</tr>" for r in rows)
