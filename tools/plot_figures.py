@@ -45,7 +45,7 @@ def _truth_option(required: bool = False):  # noqa: ANN202 - click decorator
 def speed_cmd(
     tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
 ) -> None:
-    """Side view of the estimated trajectory x, -z [m] coloured by speed [m/s] over the hill profile
+    """Side view of the estimated trajectory x, -z [m] as a line coloured by speed [m/s] over the hill profile
     (skijump Figure 7), and a zoom on the flight (take-off to touch-down events, own colour scale);
     events annotated with their speed. Hill: --hill, else the session's hill."""
     from sportfusion.skijump.plots import profile_from_meta, speed_figure
