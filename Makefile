@@ -12,12 +12,12 @@ DEMO ?= demo-out
 SESSIONS ?= sessions
 BATCH ?= batch-out
 
-.PHONY: all test test-fast lint format demo bench fixtures clean batch cluster-batch
+.PHONY: all test test-fast lint format demo images bench fixtures clean batch cluster-batch
 
 all: test
 
 $(STAMP): pyproject.toml setup.py lib/skijump/_ski_c.c lib/estimators/_banded_c.c
-	@echo "installing dependencies into $(VENV), about a minute (newest versions pyproject.toml allows)"
+	@echo "installing dependencies into $(VENV): 4-6 minutes on a 2-core machine (newest versions pyproject.toml allows)"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster]'
 	touch $@
@@ -51,18 +51,35 @@ fixtures: $(STAMP)
 	$(BIN)/python fixtures/make_skijump.py
 	$(BIN)/python fixtures/make_sessions.py
 
-# every sport on the shipped fixtures (fixtures/<sport>/config.mk): results, evaluations, plots
+# every sport on the shipped fixtures (fixtures/<sport>/config.mk): results, evaluations, plots, pages.
+# It prints the commands a user types (after `source .venv/bin/activate`), then what they give.
 demo: $(STAMP)
-	mkdir -p $(DEMO)/plots
-	$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/recording.parquet
-	$(BIN)/inspect $(DEMO)/recording.parquet | head -n 25
-	$(BIN)/plot hill --hill oberstdorf_hs106 -o $(DEMO)/plots/hill-oberstdorf_hs106.png
-	$(MAKE) --no-print-directory -f pipelines/batch.mk SESSIONS=fixtures OUT=$(DEMO)
-	for f in $(DEMO)/*/plots/*.png; do s=$${f#$(DEMO)/}; cp "$$f" "$(DEMO)/plots/$${s%%/*}-$$(basename $$f)"; done
-	for f in $(DEMO)/*/evaluation.txt $(DEMO)/*/table7.txt; do [ -f "$$f" ] || continue; \
-	  echo "== $$f"; head -n 6 "$$f"; done
-	@echo "plots: $(DEMO)/plots/"; ls $(DEMO)/plots
-	@echo "pages for people (open in a browser): $(DEMO)/index.html, $(DEMO)/<sport>/report.html"
+	@mkdir -p $(DEMO)/plots
+	@echo "== 1. A raw recording becomes a session: a phone's phyphox export and a GPS logger's NMEA log on one clock"
+	@echo "\$$ ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/recording.parquet"
+	@$(BIN)/ingest fixtures/raw/phyphox_jump.zip fixtures/raw/qstarz_jump.nmea -o $(DEMO)/recording.parquet
+	@echo "\$$ inspect $(DEMO)/recording.parquet --rows 2     # columns [units], sensor rates, metadata, provenance"
+	@$(BIN)/inspect $(DEMO)/recording.parquet --rows 2
+	@echo
+	@echo "== 2. Every sport from its raw files to its results (fixtures/<sport>/config.mk through pipelines/session.mk)"
+	@echo "   the exact commands each session ran, with their messages: $(DEMO)/<sport>/log"
+	@$(BIN)/plot hill -q --hill oberstdorf_hs106 -o $(DEMO)/plots/hill-oberstdorf_hs106.png
+	@$(MAKE) --no-print-directory -f pipelines/batch.mk SESSIONS=fixtures OUT=$(DEMO)
+	@for f in $(DEMO)/*/plots/*.png; do s=$${f#$(DEMO)/}; cp "$$f" "$(DEMO)/plots/$${s%%/*}-$$(basename $$f)"; done
+	@echo
+	@echo "== 3. Errors against the truth of each simulated session (evaluate; RMS rows, whole session;"
+	@echo "   position d* [m] and velocity dv* [m/s] in the frame the header names, attitude in degrees)"
+	@for f in $(DEMO)/*/evaluation.txt; do echo "-- $$f"; sed -n '2,5p' "$$f"; done
+	@echo "-- $(DEMO)/skijump/table7.txt: jump length from the sensors (L_TR) against the landing video (L_VR)"
+	@sed -n '2,4p' $(DEMO)/skijump/table7.txt
+	@echo
+	@echo "== 4. Pages for people (open in a browser, on a phone, or mail them): $(DEMO)/index.html, $(DEMO)/<sport>/report.html"
+	@echo "== 5. Plots ($(DEMO)/plots/, each kind explained in docs/plots.md):"
+	@ls $(DEMO)/plots | sed 's/^/   /'
+
+# docs/images (the figures docs/plots.md shows) regenerated from the demo's outputs
+images: demo
+	docs/make_images.sh $(DEMO)
 
 # a sessions folder (one sub-folder per session with config.mk), N jobs: make batch SESSIONS=dir JOBS=2
 JOBS ?= 2

@@ -180,7 +180,7 @@ def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
     if ev.exists():
         st, _ = sfio.read_table(ev, kind="summary")
         row["pos_rms"] = _rms_3d(st, ("x", "y", "z"))
-        row["vel_rms"] = _rms_3d(st, ("vel_n", "vel_e", "vel_d"))
+        row["vel_rms"] = _rms_3d(st, ("vx", "vy", "vz") if "vx" in st.column_names else ("vel_n", "vel_e", "vel_d"))
     return row
 
 
@@ -216,11 +216,21 @@ def summary_table(rows: list[dict[str, Any]]) -> pa.Table:
     return pa.table(cols)
 
 
+#: what the summary's text columns mean (printed under the table)
+SUMMARY_LEGEND = (
+    "time: the recording's length; v_max: the largest estimated speed; jump: jump length along the landing "
+    "profile (jump-metrics); video: the same read from the landing video (video-jumplength); v_takeoff: the "
+    "speed at take-off; [km/h]: the speed before it in km/h; pos_RMS, vel_RMS: 3-D RMS error of position and "
+    "velocity against the simulated truth (evaluate); -: not measured for this session"
+)
+
+
 def format_summary(rows: list[dict[str, Any]]) -> str:
-    """A readable table: one line per session, then the failed sessions with their errors."""
+    """A readable table: one line per session (units in brackets in the header), what the columns mean,
+    then the failed sessions with their errors."""
     head = (
-        f"{'session':<16} {'sport':<9} {'status':<7} {'dur[s]':>7} {'vmax[m/s]':>9} {'[km/h]':>7} {'L[m]':>7} "
-        f"{'L_video':>7} {'v_TO[m/s]':>9} {'[km/h]':>7} {'pos_rms[m]':>10} {'vel_rms[m/s]':>12}"
+        f"{'session':<16} {'sport':<9} {'status':<7} {'time[s]':>7} {'v_max[m/s]':>10} {'[km/h]':>7} "
+        f"{'jump[m]':>7} {'video[m]':>8} {'v_takeoff[m/s]':>14} {'[km/h]':>7} {'pos_RMS[m]':>10} {'vel_RMS[m/s]':>12}"
     )
     lines = [head, "-" * len(head)]
 
@@ -234,10 +244,13 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         lines.append(
             f"{r['session']:<16} {str(r.get('sport')):<9} {r['status']:<7} {f(r.get('duration'), '7.1f')} "
-            f"{f(r.get('max_speed'), '9.2f')} {f(kmh(r.get('max_speed')), '7.1f')} {f(r.get('jump_length'), '7.2f')} "
-            f"{f(r.get('video_jump_length'), '7.2f')} {f(r.get('takeoff_speed'), '9.2f')} "
+            f"{f(r.get('max_speed'), '10.2f')} {f(kmh(r.get('max_speed')), '7.1f')} {f(r.get('jump_length'), '7.2f')} "
+            f"{f(r.get('video_jump_length'), '8.2f')} {f(r.get('takeoff_speed'), '14.2f')} "
             f"{f(kmh(r.get('takeoff_speed')), '7.1f')} {f(r.get('pos_rms'), '10.3f')} {f(r.get('vel_rms'), '12.3f')}"
         )
+    import textwrap
+
+    lines += textwrap.wrap(SUMMARY_LEGEND, len(head), initial_indent="", subsequent_indent="  ")
     failed = [r for r in rows if r["status"] != "ok"]
     lines.append(f"\n{len(rows) - len(failed)} of {len(rows)} sessions ok, {len(failed)} failed")
     lines += [f"  FAILED {r['session']}: {r['error']}" for r in failed]

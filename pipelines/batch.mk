@@ -36,4 +36,4 @@ $(NAMES:%=session-%): session-%:
 	     echo "FAILED  $*: $$(cat $(OUT)/$*/error)"; exit 1; fi
 
 summary:
-	$(PYTHON) -m sportfusion.batch $(OUT) --sessions $(SESSIONS) --engine "GNU make $(MAKE_VERSION)" --engine-params "target=$(TARGET)"
+	@$(PYTHON) -m sportfusion.batch $(OUT) --sessions $(SESSIONS) --engine "GNU make $(MAKE_VERSION)" --engine-params "target=$(TARGET)"
