@@ -150,9 +150,8 @@ def test_gyro_low_dynamics_uses_only_quiet_samples(sim, low):
     print(
         f"gyro, no GNSS: median attitude error {np.median(e[t < 5]):.2f} deg standing, {np.median(e[t > 6]):.2f} deg in the run"
     )
-    # in the run the gyro alone carries the attitude between quiet samples and drifts: over seeds 1-8 of the
-    # simulator the run's median is 1.2-4.6 deg (seed 1: 4.5 deg), the DMC alone without GNSS 45 deg
-    assert np.median(e[t < 5.0]) < 1.0 and np.median(e[t > 6.0]) < 6.0
+    # rows without GNSS keep a loose f = -g tilt reference (docs/dmc-attitude.md): 0.99 deg in the run on seed 1
+    assert np.median(e[t < 5.0]) < 1.0 and np.median(e[t > 6.0]) < 3.0
 
 
 def test_normalised_magnetometer_and_given_reference(sim):
