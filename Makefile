@@ -94,6 +94,11 @@ cluster-batch: $(STAMP)
 	$(SNAKEMAKE_BATCH)
 	@n=$$(sed -n 's/^.* sessions ok, \([0-9]*\) failed$$/\1/p' $(BATCH)/summary.txt); [ "$${n:-0}" -eq 0 ] || { echo "cluster-batch: $$n session(s) failed, listed in $(BATCH)/summary.txt"; exit 1; }
 
+# cluster-batch on a real single-node SLURM cluster stood up on this machine (root, Debian; see the script)
+.PHONY: slurm-test
+slurm-test: $(STAMP)
+	bash pipelines/slurm/test-slurm.sh
+
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster,bench]'
 	$(BIN)/python bench/report.py -o bench-report.md
