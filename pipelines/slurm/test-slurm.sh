@@ -75,13 +75,13 @@ trap 'exit 130' INT TERM
 need=()
 for pair in slurmctld:slurm-wlm slurmd:slurm-wlm sbatch:slurm-client slurmdbd:slurmdbd munged:munge \
   mariadbd:mariadb-server; do
-  command -v "${pair%%:*}" > /dev/null || need+=("${pair#*:}")
+  command -v "${pair%%:*}" > /dev/null || [[ " ${need[*]} " == *" ${pair#*:} "* ]] || need+=("${pair#*:}")
 done
 if [ "${#need[@]}" -gt 0 ]; then
   say "installing Debian's ${need[*]}, about a minute"
   if ! { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
     "${need[@]}"; } > "$D/log/apt.log" 2>&1; then
-    skip "Debian packages not reachable: $(tail -n 1 "$D/log/apt.log")"
+    skip "Debian packages not reachable (apt-get: $(tail -n 1 "$D/log/apt.log" | cut -c1-200))"
   fi
 fi
 if [ ! -x "$ROOT/.venv/bin/snakemake" ]; then
