@@ -262,7 +262,7 @@ def check_slurm_profile(
                 f"partition '{partition}' cancels pre-empted jobs (PreemptMode={mode.group(1)}): the engine "
                 "would wait for such a job forever; use a partition that requeues them or none that pre-empts"
             )
-    status = str(profile.get("slurm-status-command") or "sacct")
+    status = str(profile.get("slurm-status-command") or "")
     if status == "squeue":
         rc, out = run(["scontrol", "show", "config"])
         age = re.search(r"^MinJobAge\s*=\s*(\d+)", out, re.M) if rc == 0 else None
@@ -273,9 +273,10 @@ def check_slurm_profile(
                 f"or set slurm-status-command: sacct in {where} (then a cancelled job is not noticed)"
             )
     else:
+        how = f"slurm-status-command: {status}" if status else "no slurm-status-command (the plugin then uses sacct)"
         notes.append(
-            f"{where} has slurm-status-command: {status}; the SLURM plugin does not take sacct's "
-            "'CANCELLED by <uid>' for a failure, so a cancelled job would keep the run waiting"
+            f"{where} has {how}; the SLURM plugin does not take sacct's 'CANCELLED by <uid>' for a failure, "
+            "so a cancelled job would keep the run waiting: slurm-status-command: squeue notices it"
         )
     return problems, notes
 

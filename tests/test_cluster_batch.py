@@ -230,6 +230,9 @@ def test_the_slurm_profile_is_checked_before_submitting() -> None:
         {**lab, "slurm-status-command": "sacct"}, run=_fake_cluster(min_job_age=60)[0]
     )
     assert problems == [] and "CANCELLED by <uid>" in notes[0]
+    unset = {k: v for k, v in lab.items() if k != "slurm-status-command"}
+    problems, notes = check_slurm_profile(unset, run=_fake_cluster()[0])
+    assert problems == [] and "the plugin then uses sacct" in notes[0]
     # not a SLURM profile: nothing to check, nothing run
     run, calls = _fake_cluster()
     assert check_slurm_profile({"executor": "local"}, run=run) == ([], []) and calls == []

@@ -17,7 +17,7 @@
 # Where that is impossible (not root, no apt, packages unreachable, a SLURM already configured here) it
 # says why and exits 0: skipped. A failed check exits 1. Everything it started is stopped and everything
 # it wrote is removed on exit, failure included (SLURM_TEST_KEEP=1 keeps its folder with the logs).
-# About 5 minutes on 2 cores.
+# About 10 minutes on 2 cores shared with other work (10.4 min measured at a load of ~11).
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
