@@ -93,16 +93,28 @@ batch: $(STAMP)
 	$(MAKE) --no-print-directory -j $(JOBS) -f pipelines/batch.mk SESSIONS=$(SESSIONS) OUT=$(BATCH)
 
 # the same batch through Snakemake (the `cluster` extra): locally on JOBS cores, or with PROFILE on a
-# scheduler (pipelines/profiles/slurm is an example); RETRY_FAILED=1 also redoes the sessions that failed
+# scheduler (pipelines/profiles/slurm: set your partition and account; checked before anything is submitted);
+# RETRY_FAILED=1 also redoes the sessions that failed; UNLOCK=1 first removes the lock that a killed run
+# left in BATCH (only when no other run is using BATCH)
 PROFILE ?=
 RETRY_FAILED ?=
-cluster-batch: $(STAMP)
-	@test -d "$(SESSIONS)" || { echo "cluster-batch: no sessions folder '$(SESSIONS)': pass SESSIONS=dir (one sub-folder per session with its config.mk) and BATCH=out"; exit 2; }
-	@if [ -n "$(RETRY_FAILED)" ]; then for e in $(BATCH)/*/error; do [ -e "$$e" ] && rm -f "$${e%error}.done"; done; true; fi
-	$(BIN)/snakemake -s pipelines/Snakefile -d $(abspath $(BATCH)) --quiet rules \
+UNLOCK ?=
+SNAKEMAKE_BATCH = $(BIN)/snakemake -s pipelines/Snakefile -d $(abspath $(BATCH)) --quiet rules --rerun-incomplete \
 	  --config sessions=$(abspath $(SESSIONS)) out=$(abspath $(BATCH)) bin=$(abspath $(BIN))/ \
 	  $(if $(PROFILE),--profile $(PROFILE),--cores $(JOBS) --keep-going)
-	@n=$$(ls $(BATCH)/*/error 2>/dev/null | wc -l); [ "$$n" -eq 0 ] || { echo "cluster-batch: $$n session(s) failed, listed in $(BATCH)/summary.txt"; exit 1; }
+cluster-batch: $(STAMP)
+	@test -d "$(SESSIONS)" || { echo "cluster-batch: no sessions folder '$(SESSIONS)': pass SESSIONS=dir (one sub-folder per session with its config.mk) and BATCH=out"; exit 2; }
+	@if [ -n "$(UNLOCK)" ]; then $(SNAKEMAKE_BATCH) --unlock > /dev/null && echo "cluster-batch: unlocked $(BATCH)"; \
+	elif compgen -G "$(BATCH)/.snakemake/locks/*" > /dev/null; then echo "cluster-batch: $(BATCH) is locked: another run is using it, or a killed run left its lock; if none is running: make cluster-batch UNLOCK=1 SESSIONS=$(SESSIONS) BATCH=$(BATCH)$(if $(PROFILE), PROFILE=$(PROFILE))"; exit 2; fi
+	@$(if $(PROFILE),$(BIN)/python -m sportfusion.batch check-profile $(PROFILE))
+	@if [ -n "$(RETRY_FAILED)" ]; then for e in $(BATCH)/*/error; do [ -e "$$e" ] && rm -f "$${e%error}.done"; done; true; fi
+	$(SNAKEMAKE_BATCH)
+	@n=$$(sed -n 's/^.* sessions ok, \([0-9]*\) failed$$/\1/p' $(BATCH)/summary.txt); [ "$${n:-0}" -eq 0 ] || { echo "cluster-batch: $$n session(s) failed, listed in $(BATCH)/summary.txt"; exit 1; }
+
+# cluster-batch on a real single-node SLURM cluster stood up on this machine (root, Debian; see the script)
+.PHONY: slurm-test
+slurm-test: $(STAMP)
+	bash pipelines/slurm/test-slurm.sh
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[test,plot,cluster,bench]'
