@@ -122,7 +122,7 @@ class _Runner:
     ) -> None:
         self.seg, self.cfg, self.use_c, self.keep_cov = seg, cfg, use_c, keep_cov
         self.rows, self.work, self.progress = rows, work, progress
-        self.P0 = np.empty(0)
+        self.P0 = np.empty(0)  # set from the segment's initial state (_smooth_segment)
 
     def __call__(self, sub: SkiJumpInputs, x0: np.ndarray, smooth: bool = True) -> Run:
         out = self.rows if smooth and sub is self.seg else None
@@ -131,7 +131,8 @@ class _Runner:
 
 def _smooth_segment(seg: SkiJumpInputs, cfg: SmootherConfig, run: _Runner) -> tuple[Run, int, float | None]:
     """One segment from its initial state to its final run: ``(run, runs made, GNSS latency [s] or None)``."""
-    x0, run.P0, aligned, n_rest = initial_state(seg, cfg, with_source=True)
+    x0, P0, aligned, n_rest = initial_state(seg, cfg, with_source=True)
+    run.P0 = P0  # every run over the segment starts from the initial covariance (the mean is re-linearised)
     nw = start_window(seg, cfg)
     done, it = _start_passes(seg, cfg, run, x0, nw, aligned, n_rest)
     done, it, tau = _gnss_corrections(seg, cfg, run, done, it)
