@@ -18,12 +18,14 @@ import os
 import sys
 from types import ModuleType
 
-#: What runs slower without each extension, and about how much (CPU time of the whole command, numpy path
-#: against C on the bench inputs: docs/speed.md).
+#: What runs slower without each extension, and about how much (CPU time of the whole command, the numpy path
+#: against C: docs/speed.md, "Compiled paths").
 SLOWER = {
-    "sportfusion.skijump._ski_c": "rts-smooth about 100-200x slower",
-    "sportfusion.estimators._banded_c": "spline-smooth about 2-4x slower, dmc-attitude and pf-holds about 1.5x",
-    "sportfusion.climbing._climbing_c": "pf-holds about 1.5-2x slower",
+    "sportfusion.skijump._ski_c": "rts-smooth 15-80x slower: about 1.5 ms per IMU step instead of 20 us",
+    "sportfusion.estimators._banded_c": (
+        "spline-smooth 2-10x slower, 13 s instead of 1.5 s at 1e6 epochs; dmc-attitude and pf-holds 1.1-1.5x"
+    ),
+    "sportfusion.climbing._climbing_c": "pf-holds about 1.5x slower",
 }
 
 #: how to build them (README.md, "Two commands")
