@@ -8,7 +8,7 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core.describe import ms_to_kmh
 from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
+from sportfusion.tools._options import SEED, hill_options, load_hill_option, parse_floats
 
 DEFAULT_HILL = "oberstdorf_hs106"
 
@@ -32,7 +32,7 @@ DEFAULT_HILL = "oberstdorf_hs106"
     "needed for hills without a site.",
 )
 @click.option("--azimuth", type=float, default=None, help="Hill azimuth psi_N, north -> hill x axis, clockwise [deg].")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed [integer >= 0].")
 @click.option(
     "--distance",
     type=click.FloatRange(min=1.0),
@@ -170,7 +170,7 @@ def main(
         extra += [f"lat={lat!r}", f"lon={lon!r}", f"height={h!r}"]
     if azimuth is not None:
         extra.append(f"azimuth_deg={azimuth!r}")
-    the_hill = load_hill_option(hill or DEFAULT_HILL, extra)
+    the_hill = load_hill_option(DEFAULT_HILL if hill is None else hill, extra)
     cfg = SkiJumpConfig(
         seed=seed,
         distance=distance,

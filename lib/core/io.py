@@ -11,9 +11,11 @@ with the command's other outputs.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
 import pyarrow as pa
@@ -24,7 +26,7 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
 
     from pyarrow._parquet import FileMetaData
 
@@ -56,6 +58,42 @@ def read_bytes(
         except OSError as exc:
             raise InputError(f"cannot read {name}: {exc.strerror or exc}") from exc
     return _read_all(source, name, magic)
+
+
+@contextlib.contextmanager
+def regular_file(path: str | os.PathLike[str], cap: float | None = None) -> Iterator[Path]:
+    """``path`` itself when it is a regular file or a folder; a pipe, a FIFO or a character device
+    (``ingest <(cat file)``: ``/dev/fd/63``) copied into a temporary regular file first, so a reader can
+    look at its head and read it again.  The copy is removed on leaving (and by the signal handlers).
+
+    Raises
+    ------
+    InputError
+        The stream is longer than ``cap`` bytes (default :func:`max_table_bytes`) or cannot be read.
+    """
+    p = Path(path)
+    try:
+        mode = os.stat(p).st_mode
+    except OSError:
+        yield p  # the reader says what is wrong with it
+        return
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        yield p
+        return
+    limit = max_table_bytes() if cap is None else cap
+    name = _outputs.printable(str(p))
+    with _outputs.scratch_file(suffix=".stream") as tmp:
+        try:
+            with open(p, "rb") as src, open(tmp, "wb") as dst:
+                total = 0
+                while chunk := src.read(1 << 22):
+                    total += len(chunk)
+                    if total > limit:
+                        raise InputError(f"{name} exceeds {limit / 1024**2:.0f} MiB; {_over_cap(limit)}")
+                    dst.write(chunk)
+        except OSError as exc:
+            raise InputError(f"cannot read {name}: {exc.strerror or exc}") from exc
+        yield Path(tmp)
 
 
 def max_table_bytes() -> float:

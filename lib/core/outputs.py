@@ -30,6 +30,7 @@ command's transaction is open (:func:`current`) those join it, so they commit wi
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import hashlib
 import os
@@ -248,6 +249,20 @@ def _on_signal(signo: int, frame: object) -> None:
         except OSError:
             pass
     os._exit(128 + signo)
+
+
+@contextlib.contextmanager
+def scratch_file(suffix: str = "") -> Iterator[str]:
+    """A temporary file in the system's temporary folder for the duration of a ``with`` block (removed on
+    leaving it and by the signal handlers)."""
+    fd, tmp = tempfile.mkstemp(suffix=suffix, prefix=".sportfusion.")
+    os.close(fd)
+    key = _register(None, tmp, False)
+    try:
+        yield tmp
+    finally:
+        _LIVE.pop(key, None)
+        _remove(None, tmp, False)
 
 
 def install_signal_handlers() -> None:
