@@ -408,6 +408,36 @@ class Group(CleanExit, click.Group):
     """A click group that exits cleanly as a console script (see :class:`CleanExit`)."""
 
 
+class OutputPath(click.Path):
+    """``click.Path(writable=True)`` that lets an open descriptor's name through (``/dev/stdout``, ``/dev/fd/N``,
+    ``/proc/self/fd/N``): the output layer writes the descriptor itself, which may be writable where
+    reopening its name is not (a file the shell opened for another user)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, str) and value.startswith("/") and sfout.target_is_descriptor(value):
+            return value
+        return super().convert(value, param, ctx)
+
+
+def _output_paths(cmd: click.Command) -> None:
+    """Give every writable ``click.Path`` option of ``cmd`` the :class:`OutputPath` type."""
+    for p in cmd.params:
+        t = p.type
+        if isinstance(t, click.Path) and t.writable and not isinstance(t, OutputPath):
+            new = OutputPath(
+                exists=t.exists,
+                file_okay=t.file_okay,
+                dir_okay=t.dir_okay,
+                writable=True,
+                readable=t.readable,
+                resolve_path=t.resolve_path,
+                allow_dash=t.allow_dash,
+                path_type=t.type,
+                executable=getattr(t, "executable", False),
+            )
+            p.type = new
+
+
 def papers_epilog(cites: tuple[str, ...]) -> str:
     """Help-text paragraphs citing the papers ``cites`` (short names) in full; empty when none."""
     if not cites:
@@ -551,6 +581,7 @@ def tool(
                 0, click.Argument(["input"], required=False, type=click.Path(dir_okay=False, allow_dash=True))
             )
             cmd.params[0].help = input_help  # type: ignore[attr-defined]
+        _output_paths(cmd)
         return cmd
 
     return decorate

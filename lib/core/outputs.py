@@ -165,6 +165,12 @@ class Target:
         return identity(self.path)
 
 
+def target_is_descriptor(path: str) -> bool:
+    """Whether ``path`` names an open descriptor of this process (``/dev/stdout``, ``/dev/fd/N``, ``/proc/self/fd/N``)."""
+    m = _FD_PATH.fullmatch(os.path.normpath(path)) if path.startswith("/") else None
+    return m is not None and m["pid"] in (None, "self", "thread-self", str(os.getpid()))
+
+
 def target(dest: str | os.PathLike[str] | None) -> Target:
     """Where ``dest`` (a path; None or ``"-"``: standard output) is written, following its symbolic links.
 
