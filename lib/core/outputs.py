@@ -31,10 +31,8 @@ command's transaction is open (:func:`current`) those join it, so they commit wi
 from __future__ import annotations
 
 import contextlib
-import errno
 import hashlib
 import os
-import re
 import secrets
 import shutil
 import signal
@@ -46,171 +44,43 @@ from pathlib import Path
 from typing import Any, BinaryIO, TypeVar
 
 from sportfusion.core.errors import OutputError, SameFileError
+from sportfusion.core.paths import (
+    NAME_MAX,
+    Identity,
+    Target,
+    fd_identity,
+    follow_links,
+    identity,
+    os_reason,
+    printable,
+    stream_fd,
+    target,
+    target_is_descriptor,
+)
+
+__all__ = [
+    "NAME_MAX",
+    "Identity",
+    "Outputs",
+    "Target",
+    "current",
+    "fd_identity",
+    "identity",
+    "install_signal_handlers",
+    "note_read",
+    "printable",
+    "remove_temporaries",
+    "scratch_file",
+    "stream_fd",
+    "target",
+    "target_is_descriptor",
+    "temp_name",
+]
 
 T = TypeVar("T")
 
-#: Longest file name (bytes) the temporary names are kept within (Linux NAME_MAX).
-NAME_MAX = 255
 #: Above this many bytes a path handed to a producer goes through ``/proc/self/fd/N`` (PATH_MAX is 4096).
 _LONG_PATH = 3800
-
-_FD_PATH = re.compile(
-    r"/(?:dev/(?P<std>stdin|stdout|stderr)|dev/fd/(?P<dev>\d+)|proc/(?P<pid>self|thread-self|\d+)/fd/(?P<proc>\d+))"
-)
-_STD = {"stdin": 0, "stdout": 1, "stderr": 2}
-
-#: An identity: ("file", st_dev, st_ino) of an existing file, ("new", st_dev, st_ino of the folder, name)
-#: of a name that does not exist yet.
-Identity = tuple[Any, ...]
-
-
-# -- messages ----------------------------------------------------------------------------------------
-def printable(text: str | bytes | os.PathLike[str]) -> str:
-    """``text`` with control characters, undecodable bytes and other unprintables escaped (``\\n``, ``\\x89``).
-
-    A file name with a newline or a binary byte in it stays on one line and shows what it is.
-    """
-    if isinstance(text, bytes):
-        text = text.decode("utf-8", "surrogateescape")
-    text = os.fspath(text) if not isinstance(text, str) else text
-    if text.isprintable():
-        return text
-    out = []
-    for c in text:
-        if c.isprintable():
-            out.append(c)
-        elif 0xDC80 <= ord(c) <= 0xDCFF:  # an undecodable byte (surrogateescape)
-            out.append(f"\\x{ord(c) - 0xDC00:02x}")
-        else:
-            out.append(c.encode("unicode_escape").decode("ascii"))
-    return "".join(out)
-
-
-def _why(exc: OSError) -> str:
-    why = printable(exc.strerror or str(exc) or type(exc).__name__)
-    if getattr(exc, "errno", None) == errno.ENAMETOOLONG:
-        why += f" (at most {NAME_MAX} bytes a file name, 4096 a path)"
-    return why
-
-
-# -- identities --------------------------------------------------------------------------------------
-def _final(path: str) -> str:
-    """``path`` with the symbolic links of its last component followed (not the folders': the kernel does)."""
-    p = path
-    for _ in range(40):
-        try:
-            st = os.lstat(p)
-        except OSError:
-            return p
-        if not stat.S_ISLNK(st.st_mode):
-            return p
-        link = os.readlink(p)
-        p = link if link.startswith("/") else os.path.join(os.path.dirname(p), link)
-    return p
-
-
-def _of_stat(st: os.stat_result) -> Identity | None:
-    if stat.S_ISCHR(st.st_mode):
-        return None  # /dev/null, a terminal: may be named any number of times
-    return ("file", st.st_dev, st.st_ino)
-
-
-def identity(path: str | os.PathLike[str]) -> Identity | None:
-    """The identity of the file ``path`` names (through links); None for a character device or an unusable path."""
-    p = os.fspath(path)
-    try:
-        return _of_stat(os.stat(p))
-    except FileNotFoundError:
-        final = _final(p)
-        folder, name = os.path.split(final)
-        try:
-            st = os.stat(folder or ".")
-        except OSError:
-            return None
-        return ("new", st.st_dev, st.st_ino, name)
-    except (OSError, ValueError):
-        return None
-
-
-def fd_identity(fd: int) -> Identity | None:
-    """The identity of an open file descriptor (None: closed, or a character device)."""
-    try:
-        return _of_stat(os.fstat(fd))
-    except (OSError, ValueError):
-        return None
-
-
-def stream_fd(stream: Any) -> int | None:
-    """The file descriptor behind a standard stream, or None (closed, or a test runner's in-memory stream)."""
-    try:
-        return int(stream.fileno())
-    except (AttributeError, ValueError, OSError):
-        return None
-
-
-# -- where an output goes ----------------------------------------------------------------------------
-class Target:
-    """How one output is written: ``stdout``, ``fd`` (an open descriptor), ``inplace`` (a device, a FIFO)
-    or ``atomic`` (a temporary file renamed over ``path``)."""
-
-    def __init__(self, label: str, how: str, path: str = "", fd: int = -1) -> None:
-        self.label, self.how, self.path, self.fd = label, how, path, fd
-
-    def identity(self) -> Identity | None:
-        if self.how == "stdout":
-            fd = stream_fd(sys.stdout)
-            return None if fd is None else fd_identity(fd)
-        if self.how == "fd":
-            return fd_identity(self.fd)
-        return identity(self.path)
-
-
-def target_is_descriptor(path: str) -> bool:
-    """Whether ``path`` names an open descriptor of this process (``/dev/stdout``, ``/dev/fd/N``, ``/proc/self/fd/N``)."""
-    m = _FD_PATH.fullmatch(os.path.normpath(path)) if path.startswith("/") else None
-    return m is not None and m["pid"] in (None, "self", "thread-self", str(os.getpid()))
-
-
-def target(dest: str | os.PathLike[str] | None) -> Target:
-    """Where ``dest`` (a path; None or ``"-"``: standard output) is written, following its symbolic links.
-
-    Raises
-    ------
-    OutputError
-        A folder, a block device or a socket, a loop of links, or a path that cannot be looked at.
-    """
-    if dest is None or dest == "-":
-        return Target("standard output", "stdout")
-    given = os.fspath(dest)
-    label = printable(given)
-    p = given
-    for _ in range(40):
-        m = _FD_PATH.fullmatch(os.path.normpath(p)) if p.startswith("/") else None
-        if m is not None:
-            fd = _STD[m["std"]] if m["std"] else int(m["dev"] or m["proc"])
-            if m["pid"] not in (None, "self", "thread-self", str(os.getpid())):
-                return Target(label, "inplace", path=p)  # another process's descriptor: opened by its name
-            return Target(label, "stdout") if fd == 1 else Target(label, "fd", fd=fd)
-        try:
-            st = os.lstat(p)
-        except FileNotFoundError:
-            return Target(label, "atomic", path=p)  # a new file (or the target of a dangling link)
-        except OSError as exc:
-            raise OutputError(f"cannot write {label}: {_why(exc)}") from exc
-        if not stat.S_ISLNK(st.st_mode):
-            break
-        link = os.readlink(p)
-        p = link if link.startswith("/") else os.path.join(os.path.dirname(p), link)
-    else:
-        raise OutputError(f"cannot write {label}: too many levels of symbolic links")
-    mode = st.st_mode
-    if stat.S_ISREG(mode):
-        return Target(label, "atomic", path=p)
-    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
-        return Target(label, "inplace", path=p)
-    what = "a folder" if stat.S_ISDIR(mode) else "a block device" if stat.S_ISBLK(mode) else "a socket"
-    raise OutputError(f"cannot write {label}: it is {what}; expected a file name, a FIFO or a character device")
-
 
 # -- temporaries and the signal handlers ---------------------------------------------------------------
 #: Temporaries that exist now: key -> (directory descriptor or None, name, is a folder).
@@ -323,7 +193,7 @@ def _open_folder(folder: str, label: str) -> int:
     except NotADirectoryError as exc:
         raise OutputError(f"cannot write {label}: {printable(folder)} is not a folder") from exc
     except OSError as exc:
-        raise OutputError(f"cannot write {label}: {_why(exc)}") from exc
+        raise OutputError(f"cannot write {label}: {os_reason(exc)}") from exc
 
 
 def _path_in(folder: str, dfd: int, name: str) -> str:
@@ -355,7 +225,7 @@ class _Staged:
                 continue
             except OSError as exc:
                 self.close()
-                raise OutputError(f"cannot write {self.label}: {_why(exc)}") from exc
+                raise OutputError(f"cannot write {self.label}: {os_reason(exc)}") from exc
             self.key = _register(self.dfd, self.tmp, False)
             self._keep_mode(fd)
             return fd
@@ -387,7 +257,7 @@ class _Staged:
                 continue
             except OSError as exc:
                 self.close()
-                raise OutputError(f"cannot write {self.label}: {_why(exc)}") from exc
+                raise OutputError(f"cannot write {self.label}: {os_reason(exc)}") from exc
             self.key = _register(self.dfd, self.tmp, True)
             return _path_in(self.folder, self.dfd, self.tmp)
         self.close()
@@ -501,8 +371,8 @@ class Outputs:
             ident, label = fd_identity(source), label or "standard input"
         else:
             ident, label = identity(source), label or f"the input {printable(source)}"
-        if ident is None or ident in self._inputs:
-            return
+        if ident is None or ident[0] != "file" or ident in self._inputs:
+            return  # (an input that does not exist cannot be replaced: its reader says it is missing)
         self._inputs[ident] = label
         if ident in self._claims:
             raise SameFileError(f"{self._claims[ident][0]} is the same file as {label}; refused: it would replace it")
@@ -547,7 +417,7 @@ class Outputs:
                 write(fh)
         except OSError as exc:
             st.discard()
-            raise OutputError(f"cannot write {label}: {_why(exc)}") from exc
+            raise OutputError(f"cannot write {label}: {os_reason(exc)}") from exc
         except BaseException:
             st.discard()
             raise
@@ -603,7 +473,7 @@ class Outputs:
             result = produce(_path_in(folder, st.dfd, st.tmp))
         except OSError as exc:
             st.discard()
-            raise OutputError(f"cannot write {label}: {_why(exc)}") from exc
+            raise OutputError(f"cannot write {label}: {os_reason(exc)}") from exc
         except BaseException:
             st.discard()
             raise
@@ -617,7 +487,7 @@ class Outputs:
         given = os.fspath(dest)
         label = label or printable(given)
         self._claim(identity(given), label, folder=True)
-        final = _final(given.rstrip("/") or "/")
+        final = follow_links(given.rstrip("/") or "/")
         if os.path.isdir(final):
             st = _Staged(label, final, "", is_dir=True)
             st.merge = True
@@ -633,7 +503,7 @@ class Outputs:
                 self._claim(identity(os.path.join(final, rel)), f"{label}/{printable(rel)}")
         except OSError as exc:
             st.discard()
-            raise OutputError(f"cannot write into {label}: {_why(exc)}") from exc
+            raise OutputError(f"cannot write into {label}: {os_reason(exc)}") from exc
         except BaseException:
             st.discard()
             raise
@@ -679,7 +549,7 @@ class Outputs:
                     for s in staged:
                         s.close()
                     written = f" ({', '.join(done)} already replaced)" if done else ""
-                    raise OutputError(f"cannot write {st.label}: {_why(exc)}{written}") from exc
+                    raise OutputError(f"cannot write {st.label}: {os_reason(exc)}{written}") from exc
         for st in staged:
             st.close()
 
@@ -703,16 +573,16 @@ def _write_in_place(tgt: Target, write: Callable[[BinaryIO], object]) -> None:
         except BrokenPipeError:
             raise
         except OSError as exc:
-            raise OutputError(f"cannot write {tgt.label}: {_why(exc)}") from exc
+            raise OutputError(f"cannot write {tgt.label}: {os_reason(exc)}") from exc
         return
     try:
         fd = os.dup(tgt.fd) if tgt.how == "fd" else os.open(tgt.path, os.O_WRONLY | os.O_CLOEXEC)
     except OSError as exc:
-        raise OutputError(f"cannot write {tgt.label}: {_why(exc)}") from exc
+        raise OutputError(f"cannot write {tgt.label}: {os_reason(exc)}") from exc
     try:
         with os.fdopen(fd, "wb", closefd=True) as fh:
             write(fh)
     except BrokenPipeError:
         raise
     except OSError as exc:
-        raise OutputError(f"cannot write {tgt.label}: {_why(exc)}") from exc
+        raise OutputError(f"cannot write {tgt.label}: {os_reason(exc)}") from exc
