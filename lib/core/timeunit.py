@@ -44,10 +44,13 @@ _EARTH_M_PER_DEG = 111_320.0
 
 
 def time_unit_problem(table: pa.Table) -> str | None:
-    """Why column ``t`` of a session looks like another unit than seconds, or None when it looks right."""
+    """Why column ``t`` of a session looks like another unit than seconds, or None when it looks right.
+
+    Judged on the first :data:`ROWS` rows, read in place (no copy of a column as long as the table).
+    """
     if "t" not in table.column_names or table.num_rows < 3:
         return None
-    t = schema.floats(table, "t")
+    t, _ = _leading(table, "t")
     kin = _kinematic_ratio(table, t)
     if kin is not None:
         ratio, apparent, speed = kin
@@ -57,13 +60,13 @@ def time_unit_problem(table: pa.Table) -> str | None:
             f, long, short = min(UNITS, key=lambda u: abs(np.log10(u[0] * ratio)))
             return (
                 f"column 't' looks like {long} ({short}), not seconds: the GNSS positions move at a median "
-                f"{apparent:.3g} m/s while the receiver reports {speed:.3g} m/s ({1 / ratio:.3g}x slower)"
+                f"{apparent:.3g} m/s while the receiver reports {speed:.3g} m/s (~{f:g}x faster)"
             )
     for sensor, col in _IMU:
         if col not in table.column_names:
             continue
-        valid = table.column(col).is_valid().to_numpy(zero_copy_only=False)
-        ts = t[valid]
+        _, valid = _leading(table, col)
+        ts = t if valid is None else t[valid]
         if ts.size < 10:
             continue
         dt = float(median(np.diff(ts)))
@@ -75,11 +78,38 @@ def time_unit_problem(table: pa.Table) -> str | None:
                     f"column 't' looks like {long} ({short}), not seconds: the {sensor}'s samples are {dt:.4g} s "
                     f"apart ({1 / dt:.3g} Hz; {f / dt:.4g} Hz if t is in {short})"
                 )
-    span = float(t[-1] - t[0])
+    tt = table.column("t")
+    span = float(tt[len(tt) - 1].as_py() - tt[0].as_py())
     if span > MAX_SPAN_S:
         f, long, short = next((u for u in UNITS if span / u[0] <= MAX_SPAN_S), UNITS[-1])
         return f"column 't' looks like {long} ({short}), not seconds: the session spans {span / 3.156e7:.3g} years"
     return None
+
+
+#: Rows the check looks at (the first ones: hours of any recording).
+ROWS = 1_000_000
+
+
+def _leading(table: pa.Table, name: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """The first :data:`ROWS` values of a numeric column as float64 (a view of the column's buffer where it is
+    one float64 chunk: nulls then hold whatever the buffer has) and its validity (None: no nulls)."""
+    col = table.column(name)
+    arr = col.chunk(0) if col.num_chunks == 1 else col.combine_chunks()
+    arr = arr.slice(0, min(len(arr), ROWS))
+    valid = None
+    if arr.null_count:
+        bits = np.unpackbits(np.frombuffer(arr.buffers()[0], np.uint8), bitorder="little")
+        valid = bits[arr.offset : arr.offset + len(arr)].astype(bool)
+    if arr.type == pa.float64() and arr.buffers()[1] is not None:
+        values = np.frombuffer(arr.buffers()[1], np.float64)[arr.offset : arr.offset + len(arr)]
+    else:
+        values, _ = (
+            schema.float_values(arr)
+            if pa.types.is_floating(arr.type)
+            else (schema.floats(pa.table({name: arr}), name), None)
+        )
+        values = np.asarray(values, np.float64)
+    return values, valid
 
 
 def check_time_unit(table: pa.Table, name: str = "the session") -> None:
@@ -97,29 +127,33 @@ def check_time_unit(table: pa.Table, name: str = "the session") -> None:
 def _kinematic_ratio(table: pa.Table, t: np.ndarray) -> tuple[float, float, float] | None:
     """Median (GNSS displacement / time difference) over the reported speed while moving, or None."""
     names = set(table.column_names)
-    if {"gnss_x", "gnss_y"} <= names:
-        pos = schema.float_columns(table, ("gnss_x", "gnss_y"))
-    elif {"lat", "lon"} <= names:
-        ll = schema.float_columns(table, ("lat", "lon"))
-        pos = np.column_stack((ll[:, 0] * _EARTH_M_PER_DEG, ll[:, 1] * _EARTH_M_PER_DEG * np.cos(np.radians(ll[:, 0]))))
-    else:
+    pair = (
+        ("gnss_x", "gnss_y") if {"gnss_x", "gnss_y"} <= names else ("lat", "lon") if {"lat", "lon"} <= names else None
+    )
+    vel = ("vel_n", "vel_e") if {"vel_n", "vel_e"} <= names else ("gnss_speed",) if "gnss_speed" in names else None
+    if pair is None or vel is None:
         return None
-    if {"vel_n", "vel_e"} <= names:
-        v = schema.float_columns(table, ("vel_n", "vel_e"))
-        speed = np.hypot(v[:, 0], v[:, 1])
-    elif "gnss_speed" in names:
-        speed = schema.floats(table, "gnss_speed")
-    else:
-        return None
-    rows = np.flatnonzero(np.isfinite(pos).all(axis=1) & np.isfinite(speed))
+    cols = [_leading(table, c) for c in (*pair, *vel)]
+    ok = np.ones(t.size, dtype=bool)
+    for _, valid in cols:
+        if valid is not None:
+            ok &= valid
+    rows = np.flatnonzero(ok)  # the GNSS rows (a fraction of an IMU session's)
     if rows.size < 6:
         return None
-    p, s, tt = pos[rows], speed[rows], t[rows]
+    a, b = cols[0][0][rows], cols[1][0][rows]
+    if pair == ("lat", "lon"):
+        a, b = a * _EARTH_M_PER_DEG, b * _EARTH_M_PER_DEG * np.cos(np.radians(a / _EARTH_M_PER_DEG))
+    s = np.hypot(cols[2][0][rows], cols[3][0][rows]) if len(vel) == 2 else cols[2][0][rows]
+    keep = np.isfinite(a) & np.isfinite(b) & np.isfinite(s)
+    a, b, s, tt = a[keep], b[keep], s[keep], t[rows][keep]
+    if tt.size < 6:
+        return None
     dt = np.diff(tt)
     mean_speed = 0.5 * (s[1:] + s[:-1])
     moving = (mean_speed > MOVING_MS) & (dt > 0)
     if np.count_nonzero(moving) < 5:
         return None
-    apparent = np.hypot(*np.diff(p, axis=0).T)[moving] / dt[moving]
+    apparent = np.hypot(np.diff(a), np.diff(b))[moving] / dt[moving]
     ratio = float(median(apparent / mean_speed[moving]))
     return ratio, float(median(apparent)), float(median(mean_speed[moving]))
