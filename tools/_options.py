@@ -271,7 +271,11 @@ def check_option_values(cmd: click.Command, values: dict[str, Any]) -> None:
         longest = max(p.opts, key=len)
         value = values[p.name or ""]
         items = value if isinstance(value, tuple) else (value,)
-        if isinstance(value, str) and not value.strip() and (isinstance(p.type, click.Path) or p.metavar):
+        if (
+            isinstance(value, str)
+            and not value.strip()
+            and (isinstance(p.type, click.Path) or "FILE" in (p.metavar or ""))
+        ):
             raise click.BadParameter("is empty; expected a name or a file", param_hint=longest)
         if longest in FLOAT_LISTS:
             for item in items:
