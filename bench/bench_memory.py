@@ -13,6 +13,8 @@ share does not grow).
 
 Run: ``python bench/bench_memory.py [--hours 1 2] [--only dmc-attitude,detect-events] [--keep DIR]``.
 The sessions of one sport are built once per run (a few minutes); the whole table takes ~20-40 min of CPU.
+Not here: ``simulate`` (its output is at most 600 s), ``compare-runs`` (runs of one course, minutes each) and
+``video-jumplength`` (a video, not a recording of hours).
 """
 
 from __future__ import annotations
@@ -111,6 +113,7 @@ def skirace(d: Path, hours: float) -> dict[str, tuple[list[str], Path | None]]:
         "spline-smooth": (["spline-smooth", str(s), "-q"], None),
         "dmc-attitude": (["dmc-attitude", str(smooth), "-q"], None),
         "report (skirace)": (["report", str(smooth), "--sport", "skirace", "-q", "-o", str(d / "r.html")], None),
+        "plot series": (["plot", "series", str(smooth), "-q", "-o", str(d / "series.png")], None),
     }
 
 
@@ -155,7 +158,12 @@ def gates(d: Path, hours: float) -> dict[str, tuple[list[str], Path | None]]:
         must(["simulate", "gates", "--seed", "1", "-q", "--gates", str(survey), "-o", str(base)])
     s = d / f"gates_{hours:g}h.parquet"
     tile(base, s, hours * 3600)
-    return {"detect-events --kind gates": (["detect-events", str(s), "--kind", "gates", "-q"], None)}
+    events = d / f"gates_{hours:g}h.events.parquet"
+    must(["detect-events", str(s), "--kind", "gates", "-q", "-o", str(events)])
+    return {
+        "detect-events --kind gates": (["detect-events", str(s), "--kind", "gates", "-q"], None),
+        "gate-anchor": (["gate-anchor", str(events), "--gates", str(survey), "-q"], None),
+    }
 
 
 SPORTS: dict[str, Callable[[Path, float], dict[str, tuple[list[str], Path | None]]]] = {
