@@ -31,17 +31,12 @@ command's transaction is open (:func:`current`) those join it, so they commit wi
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import os
-import secrets
-import shutil
 import signal
 import stat
 import sys
-import tempfile
 from collections.abc import Callable, Iterator
-from pathlib import Path
-from typing import Any, BinaryIO, TypeVar
+from typing import TYPE_CHECKING, Any, BinaryIO, TypeVar
 
 from sportfusion.core.errors import OutputError, SameFileError
 from sportfusion.core.paths import (
@@ -77,6 +72,9 @@ __all__ = [
     "temp_name",
 ]
 
+if TYPE_CHECKING:
+    from pathlib import Path
+
 T = TypeVar("T")
 
 #: Above this many bytes a path handed to a producer goes through ``/proc/self/fd/N`` (PATH_MAX is 4096).
@@ -85,11 +83,14 @@ _LONG_PATH = 3800
 # -- temporaries and the signal handlers ---------------------------------------------------------------
 #: Temporaries that exist now: key -> (directory descriptor or None, name, is a folder).
 _LIVE: dict[int, tuple[int | None, str, bool]] = {}
+_SERIAL = 0
 _HELD = ("SIGINT", "SIGTERM", "SIGHUP")
 
 
 def _register(dfd: int | None, name: str, is_dir: bool) -> int:
-    key = id(object()) ^ secrets.randbits(32)
+    global _SERIAL
+    _SERIAL += 1
+    key = _SERIAL
     _LIVE[key] = (dfd, name, is_dir)
     return key
 
@@ -97,6 +98,8 @@ def _register(dfd: int | None, name: str, is_dir: bool) -> int:
 def _remove(dfd: int | None, name: str, is_dir: bool) -> None:
     try:
         if is_dir:
+            import shutil  # (only a folder output needs it)
+
             shutil.rmtree(name, dir_fd=dfd) if dfd is not None else shutil.rmtree(name)
         else:
             os.unlink(name, dir_fd=dfd)
@@ -131,6 +134,8 @@ def _on_signal(signo: int, frame: object) -> None:
 def scratch_file(suffix: str = "") -> Iterator[str]:
     """A temporary file in the system's temporary folder for the duration of a ``with`` block (removed on
     leaving it and by the signal handlers)."""
+    import tempfile
+
     fd, tmp = tempfile.mkstemp(suffix=suffix, prefix=".sportfusion.")
     os.close(fd)
     key = _register(None, tmp, False)
@@ -175,10 +180,12 @@ class _Held:
 
 def temp_name(name: str, suffix: str = "") -> str:
     """A fresh temporary name for ``name`` in its folder: ``.NAME.XXXXXXXX.tmp`` + ``suffix``, within NAME_MAX."""
-    tag = secrets.token_hex(4)
+    tag = os.urandom(4).hex()
     full = f".{name}.{tag}.tmp{suffix}"
     if len(os.fsencode(full)) <= NAME_MAX:
         return full
+    import hashlib
+
     digest = hashlib.sha1(os.fsencode(name)).hexdigest()[:10]
     room = NAME_MAX - len(os.fsencode(f".~{digest}.{tag}.tmp{suffix}"))
     short = os.fsdecode(os.fsencode(name)[: max(room, 0)])
@@ -443,8 +450,11 @@ class Outputs:
         tgt = target(dest)
         label = label or tgt.label
         self._claim(tgt.identity(), label)
-        suffix = Path(os.fspath(dest)).suffix if suffix is None else suffix
+        suffix = os.path.splitext(os.fspath(dest))[1] if suffix is None else suffix
         if tgt.how != "atomic":  # made in the temporary folder, copied into the device/FIFO at the commit
+            import shutil
+            import tempfile
+
             fd, tmp = tempfile.mkstemp(suffix=suffix, prefix=".sportfusion.")
             os.close(fd)
             key = _register(None, tmp, False)
@@ -498,6 +508,8 @@ class Outputs:
             st = _Staged(label, folder, name, is_dir=True)
         try:
             path = st.create_dir()
+            from pathlib import Path
+
             result = produce(Path(path))
             for rel in st.produced():
                 self._claim(identity(os.path.join(final, rel)), f"{label}/{printable(rel)}")
