@@ -2,8 +2,9 @@
 
 Each sport's session is a simulated one (``simulate``) repeated end to end with its clock shifted (the
 simulators make minutes; a day's recording is many such stretches).  Every command then runs once on the
-1 h and once on the 2 h session, as a child process; its CPU time (user + system) and its peak resident set
-come from ``wait4``'s resource usage, so the figures are the command's own, however loaded the machine is.
+1 h and once on the 2 h session, as a process of its own (forked by a small launcher, see :data:`LAUNCHER`);
+its CPU time (user + system) and its peak resident set come from ``wait4``'s resource usage, so the figures
+are the command's own, however loaded the machine is.
 
 Printed per command: the input table's size in memory [MiB] (Arrow buffers), the peak RSS [MiB] and CPU
 [s] at 1 h and 2 h, the memory the command needs per hour of recording (the 2 h peak less the 1 h peak
@@ -20,7 +21,6 @@ Not here: ``simulate`` (its output is at most 600 s), ``compare-runs`` (runs of 
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import tempfile
@@ -43,22 +43,32 @@ class Run:
     err: str
 
 
+#: A small launcher process between this one and the command: a process's peak RSS as ``wait4`` reports it
+#: includes the RSS of the process it was forked from (Linux keeps the largest resident set across fork and
+#: exec), and this script holds the tiled tables in memory; the launcher is ~10 MB.
+LAUNCHER = """
+import os, sys
+pid = os.fork()
+if pid == 0:
+    os.execv(sys.argv[1], sys.argv[1:])
+_, status, u = os.wait4(pid, 0)
+print(os.waitstatus_to_exitcode(status), u.ru_utime + u.ru_stime, u.ru_maxrss / 1024.0, file=sys.stderr)
+"""
+
+
 def run(argv: list[str], stdin: Path | None = None, stdout: Path | None = None) -> Run:
-    """One command as a child process: exit code, CPU [s] (user + system), peak RSS [MiB], wall [s]."""
+    """One command as a grandchild process: exit code, CPU [s] (user + system), peak RSS [MiB], wall [s]."""
     fin = open(stdin, "rb") if stdin else subprocess.DEVNULL  # noqa: SIM115
     fout = open(stdout, "wb") if stdout else subprocess.DEVNULL  # noqa: SIM115
     start = time.perf_counter()
-    exe = [str(BIN / argv[0]), *argv[1:]]
-    p = subprocess.Popen(exe, stdin=fin, stdout=fout, stderr=subprocess.PIPE)
-    err = p.stderr.read().decode(errors="replace") if p.stderr else ""
-    _, status, usage = os.wait4(p.pid, 0)
-    p.returncode = os.waitstatus_to_exitcode(status)
+    exe = [sys.executable, "-c", LAUNCHER, str(BIN / argv[0]), *argv[1:]]
+    p = subprocess.run(exe, stdin=fin, stdout=fout, stderr=subprocess.PIPE)
     for fh in (fin, fout):
         if hasattr(fh, "close"):
             fh.close()
-    return Run(
-        p.returncode, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, time.perf_counter() - start, err
-    )
+    lines = p.stderr.decode(errors="replace").splitlines()
+    rc, cpu, rss = lines[-1].split()
+    return Run(int(rc), float(cpu), float(rss), time.perf_counter() - start, "\n".join(lines[:-1]))
 
 
 def must(argv: list[str], stdin: Path | None = None, stdout: Path | None = None) -> Run:
