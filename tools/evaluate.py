@@ -33,6 +33,7 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
     "evaluate",
     cites=("skijump",),
     writes_table=False,
+    stdout=True,
     example="""
   simulate skijump --seed 1 --truth truth.parquet | gps2hill --hill oberstdorf_hs106 \\
       | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > est.parquet
@@ -122,6 +123,7 @@ def main(
     table (jump-metrics) with --truth: per jump the jump length [m], take-off
     speed [m/s, km/h beside], flight time and take-off/touch-down times [s],
     estimate, truth and error; jumps paired by take-off time (--max-event-dt)."""
+    tool.output = output  # the main output: -o or standard output
     if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
         raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
     if video_path is not None:
@@ -144,7 +146,7 @@ def main(
     if fmt == "text":
         what = "GNSS measurements" if gnss else "estimate"
         text = format_text(ev, f"{what} vs truth ({truth_path}); errors = {what} - truth")
-        sfio.write_bytes(text.encode(), output)
+        tool.write_bytes(text.encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):
@@ -170,7 +172,7 @@ def _jumps_vs_truth(
     cmp = compare_jumps(est, truth_meta, max_event_dt)
     if fmt == "text":
         title = f"jumps (jump-metrics) vs truth ({truth_path}); errors = estimate - truth"
-        sfio.write_bytes(format_jumps(cmp, title).encode(), output)
+        tool.write_bytes(format_jumps(cmp, title).encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):
@@ -189,7 +191,7 @@ def _jump_lengths(tool: Tool, video_path: str, reading_accuracy: float, fmt: str
     cmp = compare_jump_lengths(est, ref, reading_accuracy)
     if fmt == "text":
         title = f"jump length: estimate L_TR vs video L_VR ({video_path}); dL = L_TR - L_VR (skijump Table 7)"
-        sfio.write_bytes(format_jump_lengths(cmp, title).encode(), output)
+        tool.write_bytes(format_jump_lengths(cmp, title).encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):

@@ -5,8 +5,6 @@ from __future__ import annotations
 import click
 
 from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
-from sportfusion.core import io as sfio
-from sportfusion.core import meta as sfmeta
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import seed_truth_options
 
@@ -69,9 +67,9 @@ def main(
     cfg = BoulderConfig(seed=seed, imu_rate=imu_rate, route_holds=route_holds, duration=duration)
     sim = simulate_boulder(cfg)
     if truth_path:
-        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+        tool.write_side(truth_path, sim.truth, sim.truth_meta)
     if holds_path:
-        sfio.write_table(sim.holds, sfmeta.add_provenance(sim.holds_meta, tool.name, tool.params), holds_path)
+        tool.write_side(holds_path, sim.holds, sim.holds_meta)
     tool.info(
         f"{sim.session.num_rows} rows ({sim.session.column('t')[-1].as_py():.1f} s), route {sim.route}, "
         f"start hold {sim.start_hold}, descent at {sim.descent_time:.1f} s"

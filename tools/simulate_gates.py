@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.gates.sim import GatesConfig, simulate_gates
 from sportfusion.tools._cli import Tool, tool
@@ -96,9 +95,9 @@ def main(
         cfg.n_gates = n_gates
     sim = simulate_gates(cfg, survey_wgs84=wgs84)
     if truth_path:
-        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+        tool.write_side(truth_path, sim.truth, sim.truth_meta)
     if gates_path:
-        sfio.write_table(sim.survey, sfmeta.add_provenance(sim.survey_meta, tool.name, tool.params), gates_path)
+        tool.write_side(gates_path, sim.survey, sim.survey_meta)
     tool.info(
         f"{sim.session.num_rows} rows, {sim.magnets.shape[0]} gates, "
         f"closest passes {sim.crossings['distance'].min():.2f}-{sim.crossings['distance'].max():.2f} m"

@@ -616,7 +616,7 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
     const int bb = b * b;
     for (Py_ssize_t k = 0; k < n; k++) {
         double *lk = l + k * bb;
-        memcpy(lk, d + k * bb, bb * sizeof(double));
+        if (lk != d + k * bb) memcpy(lk, d + k * bb, bb * sizeof(double)); /* l may be d itself (in place) */
         if (k > 0) { /* S_k = D_k - W^T W (lower triangle used) */
             const double *wp = w + (k - 1) * bb;
             for (int i = 0; i < b; i++)
@@ -628,7 +628,7 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
         }
         if (bt_chol(lk, b) < 0) return k;
         if (k + 1 < n) {
-            memcpy(w + k * bb, e + k * bb, bb * sizeof(double));
+            if (w != e) memcpy(w + k * bb, e + k * bb, bb * sizeof(double)); /* w may be e itself */
             bt_fwd(lk, b, w + k * bb, b);
         }
     }

@@ -227,8 +227,12 @@ def detect_gates(
     peaks = peaks[_half_height_width(e, peaks) <= max(1.0, p.max_width * rate)]
     for k in peaks:
         bp = refine_peak(b, int(k))
-        w = np.abs(t_gyr - t_mag[k]) <= p.turn_window
-        wz = float(np.mean(gyr_z[w])) if w.any() else float(np.interp(t_mag[k], t_gyr, gyr_z))
+        # the gyro samples within turn_window of the peak: found by bisection in the sorted times (a scan
+        # of the whole record per peak made a day's recording quadratic), then the same test on that slice
+        lo = int(np.searchsorted(t_gyr, t_mag[k] - 2.0 * p.turn_window, side="left"))
+        hi = int(np.searchsorted(t_gyr, t_mag[k] + 2.0 * p.turn_window, side="right"))
+        w = np.abs(t_gyr[lo:hi] - t_mag[k]) <= p.turn_window
+        wz = float(np.mean(gyr_z[lo:hi][w])) if w.any() else float(np.interp(t_mag[k], t_gyr, gyr_z))
         det.crossings.append(
             Crossing(
                 t=float(t_mag[k]),
@@ -298,18 +302,22 @@ def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     out = set_events(table, [("gate", c.t) for c in det.crossings], replace=GATE_EVENTS)
     t = schema.floats(table, "t")
     n = t.size
-    bp: list[float | None] = [None] * n
-    dist: list[float | None] = [None] * n
-    turn: list[str | None] = [None] * n
+    bp = np.full(n, np.nan)
+    dist = np.full(n, np.nan)
+    turn = np.full(n, None, dtype=object)
+    at = np.zeros(n, dtype=bool)
     for c in det.crossings:
-        i = int(np.argmin(np.abs(t - c.t)))
-        bp[i], turn[i] = c.b_peak, c.turn
-        dist[i] = None if not np.isfinite(c.distance) else c.distance
+        # the row nearest the crossing (the first of two equally near), by bisection: t is increasing
+        i = int(np.clip(np.searchsorted(t, c.t), 0, n - 1))
+        if i > 0 and abs(t[i - 1] - c.t) <= abs(t[i] - c.t):
+            i -= 1
+        at[i] = True
+        bp[i], dist[i], turn[i] = c.b_peak, c.distance, c.turn
     return {
         "event": out.column("event").combine_chunks(),
-        "gate_b_peak": pa.array(bp, pa.float64()),
-        "gate_distance": pa.array(dist, pa.float64()),
-        "turn": pa.array(turn, pa.string()),
+        "gate_b_peak": pa.array(bp, pa.float64(), mask=~at),
+        "gate_distance": pa.array(dist, pa.float64(), mask=~(at & np.isfinite(dist))),
+        "turn": turn,
     }
 
 

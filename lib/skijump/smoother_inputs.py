@@ -142,6 +142,10 @@ def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> 
         return cfg
     try:
         doc = tomllib.loads(Path(path).read_text())
+    except UnicodeDecodeError:
+        raise InputError(
+            f"config {path}: not UTF-8 text (a binary file?); expected a TOML file of smoother settings"
+        ) from None
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"config {path}: {exc}; expected a TOML file of smoother settings") from None
     doc = doc.get("rts", doc)
