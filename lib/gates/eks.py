@@ -15,7 +15,10 @@ Time-index convention (:mod:`sportfusion.estimators.kalman`): step k is sample k
 
 * Transition: constant acceleration (the paper's "constant-acceleration model"): ``p' = p + v dt +
   a dt^2/2``, ``v' = v + a dt``, ``a' = a`` + white jerk of PSD ``q_jerk``; ``o`` constant; ``eps`` a
-  random walk of PSD ``q_eps``.
+  random walk of PSD ``q_eps`` plus ``q_rot`` times the squared rotation rate: a gyro's residual scale
+  factor and axis misalignment turn the attitude error while the body rotates (on the simulator a 0.2 deg
+  misalignment rectifies a GS run's roll and yaw swings into 1-4 deg of yaw drift; a hockey stop's
+  1.2 rad turn times a 0.5 % scale error is 0.3 deg), hardly while it glides straight or stands.
 * Acceleration measurement at every step: the gravity-removed acceleration of the strap-down orientation,
   which is off by the small rotation ``eps``: with ``C_est = (I - [eps x]) C_true`` and the specific force
   ``f = a - g`` (``g = (0, 0, g)``), ``a_meas = C_est f + g = a + (a - g) x eps``; Jacobians
@@ -53,6 +56,8 @@ class EKSParams:
         PSD of the white jerk driving the acceleration [(m/s^3)^2/Hz].
     q_eps : float
         PSD of the orientation-drift random walk [rad^2/s].
+    q_rot : float
+        Orientation-drift variance per second and squared rotation rate [rad^2/s per (rad/s)^2].
     sigma_acc : float
         1-sigma of one averaged acceleration measurement [m/s^2] (vibration, model errors).
     sigma_zupt : float
@@ -65,6 +70,7 @@ class EKSParams:
 
     q_jerk: float = 400.0
     q_eps: float = 2e-6
+    q_rot: float = 2e-5
     sigma_acc: float = 0.6
     sigma_zupt: float = 0.02
     sigma_eps0: tuple[float, float, float] = (0.01, 0.01, 0.05)
@@ -96,11 +102,13 @@ def transition(dt: float, p: EKSParams) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class Anchor:
-    """An anchor update at smoother step ``k``: ``p + o`` measured as ``z`` [m] with 1-sigma ``sigma`` [m]."""
+    """An anchor update at smoother step ``k``: ``p + o`` measured as ``z`` [m] with 1-sigma ``sigma`` [m]
+    per axis, or with the full covariance ``cov`` (3, 3) [m^2] when given (a pass fit's)."""
 
     k: int
     z: np.ndarray
     sigma: float
+    cov: np.ndarray | None = None
 
 
 def run_eks(
@@ -111,6 +119,7 @@ def run_eks(
     anchors: list[Anchor] | None = None,
     params: EKSParams | None = None,
     offset0: np.ndarray | None = None,
+    rot_rate: np.ndarray | None = None,
 ) -> SmootherResult:
     """Run the 15-state EKS over the smoother grid.
 
@@ -130,6 +139,8 @@ def run_eks(
     params : EKSParams, optional
     offset0 : ndarray (3,), optional
         Prior mean of the position offset [m] (default 0).
+    rot_rate : ndarray (N,), optional
+        Rotation rate of the body at the steps [rad/s] (drives ``q_rot``); default none.
 
     Returns
     -------
@@ -164,6 +175,9 @@ def run_eks(
 
     def propagate(k: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         Phi, Qd = trans(k)
+        if rot_rate is not None and p.q_rot > 0:
+            Qd = Qd.copy()
+            Qd[E_, E_] += np.eye(3) * (p.q_rot * rot_rate[k] ** 2 * steps[k])
         return Phi @ x, Phi, Qd
 
     def measure(k: int, x: np.ndarray) -> list[Measurement]:
@@ -177,7 +191,8 @@ def run_eks(
         if zupt[k]:
             out.append(Measurement(-x[V_], H_zupt, R_zupt, "zupt"))
         for an in by_step.get(k, ()):
-            out.append(Measurement(an.z - x[P_] - x[O_], H_anchor, np.full(3, an.sigma**2), "anchor"))
+            r_an = np.full(3, an.sigma**2) if an.cov is None else an.cov
+            out.append(Measurement(an.z - x[P_] - x[O_], H_anchor, r_an, "anchor"))
         return out
 
     x0 = np.zeros(N_STATES)
