@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.gates.anchors import rotate_z
+
 
 @dataclass(frozen=True)
 class AlignParams:
@@ -126,3 +128,32 @@ def align_crossings(
     out = np.empty(m, dtype=int)
     out[order] = ids
     return out
+
+
+def align_with_azimuth(
+    t: np.ndarray,
+    det: np.ndarray,
+    side: np.ndarray,
+    survey: np.ndarray,
+    survey_side: np.ndarray,
+    alpha: float,
+    params: AlignParams | None = None,
+) -> tuple[np.ndarray, float, np.ndarray]:
+    """Ids, azimuth [rad] and offset [m] of detections ``det`` in an inertial frame: aligned (:func:`align_crossings`)
+    after rotating them by the first guess ``alpha`` (e.g. the principal-component azimuth), the azimuth refined
+    from the matched pairs (a 2-D Procrustes fit of their horizontal positions), aligned again; the offset is the
+    median of survey minus rotated detection over the matched pairs (``rotate_z(det, alpha) + offset`` lands on
+    the survey)."""
+    ids = align_crossings(t, rotate_z(det, alpha), side, survey, survey_side, params)
+    for _ in range(2):
+        ok = ids >= 0
+        if ok.sum() < 3:
+            break
+        a = rotate_z(det[ok], alpha)[:, :2]
+        b = survey[ids[ok]][:, :2]
+        a, b = a - a.mean(axis=0), b - b.mean(axis=0)
+        alpha += float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a * b)))
+        ids = align_crossings(t, rotate_z(det, alpha), side, survey, survey_side, params)
+    ok = ids >= 0
+    offset = np.median(survey[ids[ok]] - rotate_z(det[ok], alpha), axis=0) if ok.any() else np.zeros(3)
+    return ids, alpha, offset

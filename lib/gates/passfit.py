@@ -205,3 +205,32 @@ def fit_pass(
     except np.linalg.LinAlgError:
         return PassFit(False, snr=snr, why="singular fit")
     return PassFit(True, rel, cov[:3, :3], best.x[3:], snr, float(np.sqrt(s2)) * scale)
+
+
+def fit_crossings(
+    t: np.ndarray,
+    q_bj: np.ndarray,
+    t_mag: np.ndarray,
+    mag: np.ndarray,
+    tg: np.ndarray,
+    vel: np.ndarray,
+    acc: np.ndarray,
+    cross: dict[str, np.ndarray],
+    guess: np.ndarray,
+    params: PassFitParams,
+) -> list[PassFit]:
+    """:func:`fit_pass` at every crossing: the magnetometer ``mag`` (k, 3) at
+    ``t_mag`` [s] rotated into the inertial frame with the attitude ``q_bj`` at the IMU times ``t``, the sensor's
+    velocity [m/s] and acceleration [m/s^2] from the smoother steps ``tg``, ``guess`` (M, 3) the peak model's
+    offsets [m]."""
+    from sportfusion.core.rotations import dcm_from_quat
+
+    k = np.clip(np.searchsorted(t, t_mag), 0, t.size - 1)
+    b_glob = np.einsum("kji,kj->ki", dcm_from_quat(q_bj[k]), mag)
+    vc = np.stack([np.interp(cross["t"], tg, vel[:, j]) for j in range(3)], axis=-1)
+    ac = np.stack([np.interp(cross["t"], tg, acc[:, j]) for j in range(3)], axis=-1)
+    out = []
+    for m, tc in enumerate(cross["t"]):
+        w = np.abs(t_mag - tc) <= 2.2 * params.flank * params.window[1]
+        out.append(fit_pass(t_mag[w], b_glob[w], float(tc), vc[m], ac[m], guess[m], params))
+    return out

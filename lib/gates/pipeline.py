@@ -4,13 +4,19 @@
    (:mod:`sportfusion.gates.inertial`); gravity-removed acceleration in the global frame.
 2. EKS 1 (:func:`sportfusion.gates.eks.run_eks`): acceleration + zero-velocity updates at the static start
    and finish.
-3. Relative anchor points at the detected crossings (:func:`relative_anchors`, vertical direction) and
-   their matching to the survey (:func:`match_anchors`: PCA azimuth ``alpha``, features, eq 9, median
-   offset ``o``, absolute re-matching).
-4. EKS 2, first iteration: the matched anchors (surveyed magnet minus the relative offset, in the inertial
-   frame through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on
-   the refined track (snow plane now from the surveyed magnets around each matched gate) and matched again;
-   second iteration with 0.1 m sigma.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
+3. Relative anchor points at the detected crossings and their matching to the survey.  With the
+   magnetometer, each crossing's offset to its magnet comes from a fit of the whole pass's field
+   (:func:`~sportfusion.gates.passfit.fit_crossings`: no sacrum height, no lean, any polarity or
+   tilt); without it (or where the fit fails) from the peak model (:func:`relative_anchors`, eqs 2-6,
+   vertical direction).  Matching: PCA azimuth ``alpha`` (:func:`match_anchors`, eqs 7-9), then the
+   crossings aligned with the gates as one sequence by their inertial displacements
+   (:mod:`sportfusion.gates.alignment`; the paper's neighbour features mislead after a run of missed
+   gates), ``alpha`` refined on the matched pairs, median offset ``o``.
+4. EKS 2, first iteration: the matched anchors (surveyed point minus the offset, in the inertial frame
+   through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on the
+   refined track and aligned again; the passes fitted again with the refined velocity; second iteration
+   with each fit's covariance (plus ``sigma_fit``), 0.1 m for the peak model (the paper's), ``sigma_unfitted``
+   for a crossing whose fit failed.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
    simulated downhill: K = 3).
 
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
@@ -34,7 +40,7 @@ import numpy as np
 from sportfusion.core.errors import InputError
 from sportfusion.core.gaps import describe_gaps
 from sportfusion.core.rotations import euler_from_quat
-from sportfusion.gates.alignment import AlignParams, align_crossings
+from sportfusion.gates.alignment import AlignParams, align_crossings, align_with_azimuth
 from sportfusion.gates.anchors import (
     MatchParams,
     match_anchors,
@@ -46,7 +52,7 @@ from sportfusion.gates.anchors import (
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
 from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
-from sportfusion.gates.passfit import PassFit, PassFitParams, fit_pass
+from sportfusion.gates.passfit import PassFit, PassFitParams, fit_crossings
 
 
 @dataclass(frozen=True)
@@ -196,35 +202,6 @@ def _survey_offsets(
     return rel
 
 
-def fit_crossings(
-    t: np.ndarray,
-    q_bj: np.ndarray,
-    t_mag: np.ndarray,
-    mag: np.ndarray,
-    tg: np.ndarray,
-    vel: np.ndarray,
-    acc: np.ndarray,
-    cross: dict[str, np.ndarray],
-    guess: np.ndarray,
-    params: PassFitParams,
-) -> list[PassFit]:
-    """:func:`~sportfusion.gates.passfit.fit_pass` at every crossing: the magnetometer ``mag`` (k, 3) at
-    ``t_mag`` [s] rotated into the inertial frame with the attitude ``q_bj`` at the IMU times ``t``, the sensor's
-    velocity [m/s] and acceleration [m/s^2] from the smoother steps ``tg``, ``guess`` (M, 3) the peak model's
-    offsets [m]."""
-    from sportfusion.core.rotations import dcm_from_quat
-
-    k = np.clip(np.searchsorted(t, t_mag), 0, t.size - 1)
-    b_glob = np.einsum("kji,kj->ki", dcm_from_quat(q_bj[k]), mag)
-    vc = _interp(tg, vel, cross["t"])
-    ac = _interp(tg, acc, cross["t"])
-    out = []
-    for m, tc in enumerate(cross["t"]):
-        w = np.abs(t_mag - tc) <= 2.2 * params.flank * params.window[1]
-        out.append(fit_pass(t_mag[w], b_glob[w], float(tc), vc[m], ac[m], guess[m], params))
-    return out
-
-
 def _spot_anchors(
     tg: np.ndarray,
     windows: dict[str, tuple[float, float]],
@@ -260,32 +237,6 @@ def _detected_anchors(
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
     return pc + _survey_offsets(pc, vc, cross, normal, p, fits)
-
-
-def _aligned(
-    cross: dict[str, np.ndarray],
-    det: np.ndarray,
-    survey: np.ndarray,
-    ssd: np.ndarray,
-    alpha: float,
-    p: GateAnchorParams,
-) -> tuple[np.ndarray, float, np.ndarray]:
-    """Ids, azimuth and offset from the sequence alignment (:mod:`sportfusion.gates.alignment`): aligned at the
-    principal-component azimuth ``alpha``, the azimuth refined from the matched pairs (a 2-D Procrustes fit of
-    their horizontal positions), aligned again."""
-    ids = align_crossings(cross["t"], rotate_z(det, alpha), cross["side"], survey, ssd, p.align)
-    for _ in range(2):
-        ok = ids >= 0
-        if ok.sum() < 3:
-            break
-        a = rotate_z(det[ok], alpha)[:, :2]
-        b = survey[ids[ok]][:, :2]
-        a, b = a - a.mean(axis=0), b - b.mean(axis=0)
-        alpha += float(np.arctan2(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]), np.sum(a * b)))
-        ids = align_crossings(cross["t"], rotate_z(det, alpha), cross["side"], survey, ssd, p.align)
-    ok = ids >= 0
-    offset = np.median(survey[ids[ok]] - rotate_z(det[ok], alpha), axis=0) if ok.any() else np.zeros(3)
-    return ids, alpha, offset
 
 
 def turn_figures(
@@ -441,7 +392,7 @@ def gate_anchor_arrays(
     det1 = _detected_anchors(tg, p1, v1, cross, None, p, fits)
     m1 = match_anchors(cross["t"], det1, cross["side"], survey, survey_side, p.match)
     ssd = survey_sides(survey) if survey_side is None else np.asarray(survey_side, float)
-    ids, alpha, offset = _aligned(cross, det1, survey, ssd, m1.alpha, p)
+    ids, alpha, offset = align_with_azimuth(cross["t"], det1, cross["side"], survey, ssd, m1.alpha, p.align)
     if (ids >= 0).sum() < 2:
         raise InputError("fewer than 2 crossings could be matched to the survey; is it the right course?")
     # EKS 2, first iteration (anchor sigma 1 m); relative anchors re-estimated on the refined track (snow
