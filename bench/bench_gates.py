@@ -18,10 +18,12 @@ spots).  Figures per run, averaged over the runs of a variant:
 
 Tuning: the defaults that were chosen on this simulator (the pass fit's ``sigma_fit``, the EKS's ``q_rot``,
 the alignment's costs) were chosen on seeds 1-8 of the variants nominal, wide and stray-iron
-(``--tune`` prints that grid); the report below uses seeds 101-1xx (nominal, Table 1) and 301-3xx (every
-variant), none of which was looked at while choosing (seeds 201-203 of the variants were, once, to
-investigate the standing error; they are no longer reported); the variants tilted, weak, deep, flipped,
-mixed, two-charge, still, sensor and athlete were not used for tuning.
+(``--tune`` prints that grid); the report below uses seeds 101-1xx (nominal, Table 1) and 401-4xx (every
+variant), none of which was looked at while choosing.  Seeds 201-203 and 301-303 of the variants were
+looked at once each (the standing error; a poorer unit's 1-3 % accelerometer scale error breaking the
+first matching, fixed by reading gravity from the static postures) and are no longer reported.  The
+variants tilted, weak, deep, flipped, mixed, two-charge, still, sensor and athlete were not used for
+tuning.
 
 Run: ``python bench/bench_gates.py [--n 12] [--n-variant 4] [--rate 50] [--quick] [--tune]``.
 """
@@ -42,7 +44,7 @@ import numpy as np  # noqa: E402
 TUNE_SEEDS = range(1, 9)
 TUNE_VARIANTS = ("nominal", "wide", "stray-iron")
 TABLE_SEED0 = 101
-VARIANT_SEED0 = 301
+VARIANT_SEED0 = 401
 # Table 1 of the paper: total position and speed, accuracy (sd over runs) and precision (sd over runs)
 PAPER = {
     "GS": {"position": (0.24, 0.09), "speed": (0.00, 0.18)},

@@ -80,3 +80,30 @@ def test_static_gyro_bias_of_a_swaying_body():
     # across gravity (x, y here) the sway's net tilt biases the mean rate; the fit removes most of it
     assert np.all(rms_new[:2] < 0.5 * rms_naive[:2]) and rms_new[:2].max() < 1e-3
     assert abs(rms_new[2] - rms_naive[2]) < 1e-4  # about the vertical: the mean rate, unchanged
+
+
+def test_alignment_finds_the_azimuth_within_thirty_degrees():
+    from sportfusion.gates.alignment import align_with_azimuth
+
+    rng = np.random.default_rng(4)
+    survey = _course(rng, 20)
+    ssd = survey_sides(survey)
+    gates = np.flatnonzero(rng.random(20) > 0.2)
+    t = 1.2 * gates
+    det = rotate_z(survey[gates] + rng.normal(0, 0.1, (gates.size, 3)), np.deg2rad(-17.0)) + [50.0, -20.0, 3.0]
+    ids, alpha, offset = align_with_azimuth(t, det, ssd[gates], survey, ssd, 0.0)
+    assert list(ids) == list(gates)
+    assert abs(np.rad2deg(alpha) - 17.0) < 0.5
+    assert np.abs(rotate_z(det, alpha) + offset - survey[gates]).max() < 0.5
+
+
+def test_static_gravity_takes_the_accelerometer_scale_out():
+    from sportfusion.gates.inertial import Static, global_acceleration, static_gravity
+
+    t = np.arange(0, 20, 0.01)
+    f = np.tile([0.0, 0.0, -9.81 * 1.02], (t.size, 1))  # a 2 % scale error, at rest throughout
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1))
+    st = Static((0, 300), (1700, 2000))
+    assert np.abs(global_acceleration(q, f, 9.81)[:, 2]).max() > 0.19  # normal gravity: 0.2 m/s^2 "up" forever
+    g = static_gravity(t, f, st)
+    assert np.abs(global_acceleration(q, f, g)).max() < 1e-9

@@ -64,7 +64,8 @@ def align_crossings(
     survey: np.ndarray,
     survey_side: np.ndarray,
     params: AlignParams | None = None,
-) -> np.ndarray:
+    with_cost: bool = False,
+) -> np.ndarray | tuple[np.ndarray, float]:
     """Survey row matched to each detection (-1: none), by the sequence alignment of the module text.
 
     Parameters
@@ -80,11 +81,13 @@ def align_crossings(
     survey_side : ndarray (N,)
         Turn side of each gate.
     params : AlignParams, optional
+    with_cost : bool
+        Also return the alignment's cost [1].
 
     Returns
     -------
     ndarray of int (M,)
-        In the input order.
+        In the input order (and the cost, with ``with_cost``).
     """
     p = params or AlignParams()
     order = np.argsort(t, kind="stable")
@@ -120,14 +123,15 @@ def align_crossings(
     final = cost + p.noise_cost * (m - 1 - np.arange(m))[:, None] + p.miss_cost * (n - 1 - np.arange(n))[None, :]
     ids = np.full(m, -1, dtype=int)
     if not np.isfinite(final).any():
-        return ids
+        return (ids, np.inf) if with_cost else ids
+    best = float(np.min(final))
     i, g = np.unravel_index(int(np.argmin(final)), final.shape)
     while i >= 0:
         ids[i] = g
         i, g = back[i, g]
     out = np.empty(m, dtype=int)
     out[order] = ids
-    return out
+    return (out, best) if with_cost else out
 
 
 def align_with_azimuth(
@@ -140,11 +144,18 @@ def align_with_azimuth(
     params: AlignParams | None = None,
 ) -> tuple[np.ndarray, float, np.ndarray]:
     """Ids, azimuth [rad] and offset [m] of detections ``det`` in an inertial frame: aligned (:func:`align_crossings`)
-    after rotating them by the first guess ``alpha`` (e.g. the principal-component azimuth), the azimuth refined
-    from the matched pairs (a 2-D Procrustes fit of their horizontal positions), aligned again; the offset is the
-    median of survey minus rotated detection over the matched pairs (``rotate_z(det, alpha) + offset`` lands on
-    the survey)."""
-    ids = align_crossings(t, rotate_z(det, alpha), side, survey, survey_side, params)
+    after rotating them by the first guess ``alpha`` (e.g. the principal-component azimuth) or by the azimuth
+    within +-30 deg of it (2 deg steps) whose alignment costs least -- a drifting inertial track bends the
+    principal component by degrees, and a poor unit's by more --, the azimuth refined from the matched pairs
+    (a 2-D Procrustes fit of their horizontal positions), aligned again; the offset is the median of survey
+    minus rotated detection over the matched pairs (``rotate_z(det, alpha) + offset`` lands on the survey)."""
+    best = None
+    for da in np.deg2rad(np.arange(-30.0, 30.1, 2.0)):
+        ids_a, cost = align_crossings(t, rotate_z(det, alpha + da), side, survey, survey_side, params, with_cost=True)
+        if best is None or cost < best[0]:
+            best = (cost, alpha + da, ids_a)
+    assert best is not None
+    _, alpha, ids = best
     for _ in range(2):
         ok = ids >= 0
         if ok.sum() < 3:

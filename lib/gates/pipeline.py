@@ -51,7 +51,7 @@ from sportfusion.gates.anchors import (
     survey_sides,
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
-from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
+from sportfusion.gates.inertial import global_acceleration, static_gravity, static_windows, strapdown
 from sportfusion.gates.passfit import PassFit, PassFitParams, fit_crossings
 
 
@@ -364,7 +364,7 @@ def gate_anchor_arrays(
     gate_numbers = np.arange(1, survey.shape[0] + 1) if gate_numbers is None else np.asarray(gate_numbers)
     static = static_windows(t, acc, gyr)
     q = strapdown(t, acc, gyr, static) if q_bj is None else q_bj
-    a_glob = global_acceleration(q, acc, g)
+    a_glob = global_acceleration(q, acc, static_gravity(t, acc, static))
     roll = euler_from_quat(q)[0]
     cross = {
         "t": np.asarray(cross_t, float),
