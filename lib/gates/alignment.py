@@ -95,6 +95,10 @@ def align_crossings(
     m, n = det.shape[0], survey.shape[0]
     side_pen = np.where((sd[:, None] != 0) & (sd[:, None] != survey_side[None, :]), p.side_cost, 0.0)
     inf = np.inf
+    sdiff = survey[:, None, :] - survey[None, :, :]  # (g, g')
+    gap = np.arange(n)[:, None] - np.arange(n)[None, :]  # g - g'
+    allowed = (gap >= 1) & (gap <= p.max_skip + 1)
+    skip_cost = p.miss_cost * np.maximum(gap - 1, 0)
     cost = np.full((m, n), inf)
     back = np.full((m, n, 2), -1, dtype=int)
     for i in range(m):
@@ -107,19 +111,16 @@ def align_crossings(
             dt = tt[i] - tt[j]
             dd = det[i] - det[j]
             sig = p.sigma0 + p.sigma_rate * dt + p.sigma_frac * float(np.linalg.norm(dd))
-            for g in range(1, n):
-                lo = max(0, g - p.max_skip - 1)
-                prev = cost[j, lo:g]
-                if not np.isfinite(prev).any():
-                    continue
-                gs = np.arange(lo, g)
-                mis = survey[g] - survey[gs] - dd
-                c = prev + np.sum(mis * mis, axis=1) / sig**2 + p.miss_cost * (g - gs - 1)
-                k = int(np.argmin(c))
-                total = c[k] + p.noise_cost * (di - 1) + side_pen[i, g]
-                if total < cost[i, g]:
-                    cost[i, g] = total
-                    back[i, g] = (j, gs[k])
+            # every (gate g for detection i, gate g' < g for detection j) pair at once
+            mis = sdiff - dd  # (n, n, 3): survey[g] - survey[g'] - dd
+            c = cost[j][None, :] + np.sum(mis * mis, axis=-1) / sig**2 + skip_cost
+            c = np.where(allowed, c, inf)
+            k = np.argmin(c, axis=1)
+            total = c[np.arange(n), k] + p.noise_cost * (di - 1) + side_pen[i]
+            better = total < cost[i]
+            cost[i, better] = total[better]
+            back[i, better, 0] = j
+            back[i, better, 1] = k[better]
     final = cost + p.noise_cost * (m - 1 - np.arange(m))[:, None] + p.miss_cost * (n - 1 - np.arange(n))[None, :]
     ids = np.full(m, -1, dtype=int)
     if not np.isfinite(final).any():
