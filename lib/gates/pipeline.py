@@ -4,13 +4,19 @@
    (:mod:`sportfusion.gates.inertial`); gravity-removed acceleration in the global frame.
 2. EKS 1 (:func:`sportfusion.gates.eks.run_eks`): acceleration + zero-velocity updates at the static start
    and finish.
-3. Relative anchor points at the detected crossings (:func:`relative_anchors`, vertical direction) and
-   their matching to the survey (:func:`match_anchors`: PCA azimuth ``alpha``, features, eq 9, median
-   offset ``o``, absolute re-matching).
-4. EKS 2, first iteration: the matched anchors (surveyed magnet minus the relative offset, in the inertial
-   frame through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on
-   the refined track (snow plane now from the surveyed magnets around each matched gate) and matched again;
-   second iteration with 0.1 m sigma.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
+3. Relative anchor points at the detected crossings and their matching to the survey.  With the
+   magnetometer, each crossing's offset to its magnet comes from a fit of the whole pass's field
+   (:func:`~sportfusion.gates.passfit.fit_crossings`: no sacrum height, no lean, any polarity or
+   tilt); without it (or where the fit fails) from the peak model (:func:`relative_anchors`, eqs 2-6,
+   vertical direction).  Matching: PCA azimuth ``alpha`` (:func:`match_anchors`, eqs 7-9), then the
+   crossings aligned with the gates as one sequence by their inertial displacements
+   (:mod:`sportfusion.gates.alignment`; the paper's neighbour features mislead after a run of missed
+   gates), ``alpha`` refined on the matched pairs, median offset ``o``.
+4. EKS 2, first iteration: the matched anchors (surveyed point minus the offset, in the inertial frame
+   through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on the
+   refined track and aligned again; the passes fitted again with the refined velocity; second iteration
+   with each fit's covariance (plus ``sigma_fit``), 0.1 m for the peak model (the paper's), ``sigma_unfitted``
+   for a crossing whose fit failed.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
    simulated downhill: K = 3).
 
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
@@ -34,6 +40,7 @@ import numpy as np
 from sportfusion.core.errors import InputError
 from sportfusion.core.gaps import describe_gaps
 from sportfusion.core.rotations import euler_from_quat
+from sportfusion.gates.alignment import AlignParams, align_crossings, align_with_azimuth
 from sportfusion.gates.anchors import (
     MatchParams,
     match_anchors,
@@ -41,9 +48,11 @@ from sportfusion.gates.anchors import (
     rotate_z,
     sacrum_height,
     snow_normals,
+    survey_sides,
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
-from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
+from sportfusion.gates.inertial import global_acceleration, static_gravity, static_windows, strapdown
+from sportfusion.gates.passfit import PassFit, PassFitParams, fit_crossings
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,21 @@ class GateAnchorParams:
         above the surveyed mark (used with surveyed static spots only).
     sigma_spot : float
         1-sigma of a surveyed static spot as an anchor of the sacrum [m] (posture and stance on the mark).
+    survey_depth : float
+        Depth of a magnet's centre below its surveyed point [m]: 0 when the survey gives the magnets
+        themselves (the paper's assumption), about 0.1 when it gives the snow above a fully buried 15 cm
+        stick; the default takes the middle, so either convention is off by 5 cm at most.
+    pass_fit : bool
+        Place each anchor by a fit of the whole pass (:mod:`sportfusion.gates.passfit`) when the session has
+        the magnetometer; False: from the peak intensity and the body model alone (the paper's eqs 1-6).
+    fit : PassFitParams
+        The pass fit's settings.
+    sigma_fit : float
+        Added in quadrature to each axis of a pass fit's covariance in the final iteration [m] (survey noise,
+        the magnet model's simplifications).
+    sigma_unfitted : float
+        1-sigma of a final-iteration anchor whose pass could not be fitted (little signal: a wide or weak
+        pass), which only the peak model places [m].
     """
 
     rate: float = 100.0
@@ -84,8 +108,14 @@ class GateAnchorParams:
     projection: str = "vertical"
     static_height: float = 1.0
     sigma_spot: float = 0.05
+    survey_depth: float = 0.05
+    pass_fit: bool = True
+    fit: PassFitParams = field(default_factory=PassFitParams)
+    sigma_fit: float = 0.05
+    sigma_unfitted: float = 0.3
     eks: EKSParams = field(default_factory=EKSParams)
     match: MatchParams = field(default_factory=MatchParams)
+    align: AlignParams = field(default_factory=AlignParams)
 
 
 @dataclass
@@ -106,6 +136,7 @@ class GateAnchorResult:
     offset: np.ndarray
     turns: list[dict[str, Any]]
     passes: dict[str, Any]
+    fits: list[PassFit] | None = None  # the pass fit of each crossing (with a magnetometer)
 
 
 def _interp(tg: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
@@ -123,14 +154,17 @@ def _anchor_updates(
     offset: np.ndarray,
     sigma: float,
     p: GateAnchorParams,
+    fits: list[PassFit] | None = None,
+    final: bool = False,
 ) -> tuple[list[Anchor], np.ndarray]:
-    """Anchor updates in the inertial frame: surveyed magnet (through alpha, offset) minus the relative offset."""
+    """Anchor updates in the inertial frame: surveyed point (through alpha, offset) minus the sensor -> surveyed
+    point offset (a pass fit's where there is one, else the peak model's).  In the ``final`` iteration a
+    fitted anchor carries its fit's covariance (plus ``sigma_fit``), an unfitted one ``sigma_unfitted``."""
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
     normal_s, _ = snow_normals(survey, ids)
     normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
-    est = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal_j, p.burial)
-    rel = est - pc
+    rel = _survey_offsets(pc, vc, cross, normal_j, p, fits)
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
     out = []
     for m in np.flatnonzero(used):
@@ -138,8 +172,34 @@ def _anchor_updates(
         k = int(np.clip(np.rint((cross["t"][m] - tg[0]) / (tg[1] - tg[0])), 0, tg.size - 1))
         # the crossing time falls between steps: move the measured point along the velocity to step k
         z = g_j - rel[m] + vc[m] * (tg[k] - cross["t"][m])
+        if final and fits is not None:
+            f = fits[m]
+            if f.ok:
+                out.append(Anchor(k, z, sigma, cov=f.cov + np.eye(3) * p.sigma_fit**2))
+                continue
+            out.append(Anchor(k, z, max(sigma, p.sigma_unfitted)))
+            continue
         out.append(Anchor(k, z, sigma))
     return out, used
+
+
+def _survey_offsets(
+    pc: np.ndarray,
+    vc: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    fits: list[PassFit] | None,
+) -> np.ndarray:
+    """Offset (M, 3) from the sensor at each crossing to the magnet's surveyed point, inertial frame (z down):
+    the pass fit's magnet centre where it succeeded, else the peak model's (eqs 2-6), raised by ``survey_depth``."""
+    rel = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial) - pc
+    if fits is not None:
+        for m, f in enumerate(fits):
+            if f.ok:
+                rel[m] = f.rel
+    rel[:, 2] -= p.survey_depth
+    return rel
 
 
 def _spot_anchors(
@@ -166,11 +226,17 @@ def _spot_anchors(
 
 
 def _detected_anchors(
-    tg: np.ndarray, track: np.ndarray, vel: np.ndarray, cross: dict[str, np.ndarray], normal: np.ndarray | None, p
+    tg: np.ndarray,
+    track: np.ndarray,
+    vel: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    fits: list[PassFit] | None = None,
 ) -> np.ndarray:
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
-    return relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial)
+    return pc + _survey_offsets(pc, vc, cross, normal, p, fits)
 
 
 def turn_figures(
@@ -254,6 +320,7 @@ def gate_anchor_arrays(
     q_bj: np.ndarray | None = None,
     params: GateAnchorParams | None = None,
     spots: dict[str, np.ndarray] | None = None,
+    mag: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> GateAnchorResult:
     """The gate-anchor pipeline on arrays (see the module text).
 
@@ -279,6 +346,9 @@ def gate_anchor_arrays(
     spots : dict, optional
         Surveyed static spots in the output frame [m]: ``{"start": (3,), "finish": (3,)}``, the snow points
         where the athlete stands for the static postures; each anchors the sacrum during its posture (EKS 2).
+    mag : tuple, optional
+        Magnetometer times [s] (k,) and field (k, 3), body frame [uT or normalised]: each crossing's offset to
+        its magnet then comes from a fit of the whole pass (:func:`fit_crossings`) instead of the peak model.
 
     Returns
     -------
@@ -294,7 +364,7 @@ def gate_anchor_arrays(
     gate_numbers = np.arange(1, survey.shape[0] + 1) if gate_numbers is None else np.asarray(gate_numbers)
     static = static_windows(t, acc, gyr)
     q = strapdown(t, acc, gyr, static) if q_bj is None else q_bj
-    a_glob = global_acceleration(q, acc, g)
+    a_glob = global_acceleration(q, acc, static_gravity(t, acc, static))
     roll = euler_from_quat(q)[0]
     cross = {
         "t": np.asarray(cross_t, float),
@@ -303,6 +373,7 @@ def gate_anchor_arrays(
         "height": sacrum_height(np.interp(cross_t, t, roll), p.sacrum_height),
     }
     tg, ag = decimate(t, a_glob, p.rate)
+    wg = decimate(t, np.linalg.norm(gyr, axis=1)[:, None], p.rate)[1][:, 0]
     windows = {
         "start": (float(t[static.start[0]]), float(t[static.start[1] - 1])),
         "finish": (float(t[static.finish[0]]), float(t[static.finish[1] - 1])),
@@ -311,42 +382,49 @@ def gate_anchor_arrays(
     for a, b in windows.values():
         zupt |= (tg >= a) & (tg <= b)
     # EKS 1: inertial only
-    r1 = run_eks(tg, ag, g, zupt, None, p.eks)
+    r1 = run_eks(tg, ag, g, zupt, None, p.eks, rot_rate=wg)
     p1, v1 = r1.x_smooth[:, 0:3], r1.x_smooth[:, 3:6]
-    det1 = _detected_anchors(tg, p1, v1, cross, None, p)
+    fits = None
+    if mag is not None:
+        guess = _detected_anchors(tg, p1, v1, cross, None, p) - _interp(tg, p1, cross["t"])
+        guess[:, 2] += p.survey_depth
+        fits = fit_crossings(t, q, mag[0], mag[1], tg, v1, r1.x_smooth[:, 6:9], cross, guess, p.fit)
+    det1 = _detected_anchors(tg, p1, v1, cross, None, p, fits)
     m1 = match_anchors(cross["t"], det1, cross["side"], survey, survey_side, p.match)
-    if (m1.ids >= 0).sum() < 2:
+    ssd = survey_sides(survey) if survey_side is None else np.asarray(survey_side, float)
+    ids, alpha, offset = align_with_azimuth(cross["t"], det1, cross["side"], survey, ssd, m1.alpha, p.align)
+    if (ids >= 0).sum() < 2:
         raise InputError("fewer than 2 crossings could be matched to the survey; is it the right course?")
-    alpha, offset = m1.alpha, m1.offset
     # EKS 2, first iteration (anchor sigma 1 m); relative anchors re-estimated on the refined track (snow
     # plane from the survey) and matched again, already in the survey's azimuth (alpha fixed).  While the
     # re-matching adds matches (a large EKS-1 drift leaves few first matches) the first iteration is repeated
     # (at most 3 times; the paper runs it once).
-    ids = m1.ids
+    ids_first = ids
     track, vel = p1, v1
     normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
-        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p)
+        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, fits)
         an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
-        r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
+        r2 = run_eks(tg, ag, g, zupt, an1, p.eks, rot_rate=wg)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
         normal_s, _ = snow_normals(survey, ids)
         det2 = _detected_anchors(
-            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p
+            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, fits
         )
-        m2 = match_anchors(
-            cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, survey_side, p.match, alpha=0.0
-        )
-        grew = (m2.ids >= 0).sum() > (ids >= 0).sum() + 1
-        if (m2.ids >= 0).sum() >= 2:
-            ids = m2.ids
+        ids2 = align_crossings(cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, ssd, p.align)
+        grew = (ids2 >= 0).sum() > (ids >= 0).sum() + 1
+        if (ids2 >= 0).sum() >= 2:
+            ids = ids2
         if not grew:
             break
     track2, v2 = track, vel
-    # EKS 2, second iteration (anchor sigma 0.1 m)
-    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p)
+    if fits is not None:  # the passes again, with the velocity of the anchored track
+        guess = np.array([f.rel if f.ok else g for f, g in zip(fits, guess, strict=True)])
+        fits = fit_crossings(t, q, mag[0], mag[1], tg, v2, r2.x_smooth[:, 6:9], cross, guess, p.fit)
+    # EKS 2, second iteration (anchor sigma 0.1 m; a pass fit's covariance)
+    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, fits, True)
     an2 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
-    r3 = run_eks(tg, ag, g, zupt, an2, p.eks)
+    r3 = run_eks(tg, ag, g, zupt, an2, p.eks, rot_rate=wg)
     xs, Ps = r3.x_smooth, r3.P_smooth
     pos_j = xs[:, 0:3] + xs[:, 9:12]
     cov_j = Ps[:, 0:3, 0:3] + Ps[:, 9:12, 9:12] + Ps[:, 0:3, 9:12] + Ps[:, 9:12, 0:3]
@@ -360,7 +438,7 @@ def gate_anchor_arrays(
     turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
     passes = {
         "rate_hz": p.rate,
-        "matched_first": int((m1.ids >= 0).sum()),
+        "matched_first": int((ids_first >= 0).sum()),
         "matched_final": int((ids >= 0).sum()),
         "anchors_final": len(an2),
         "static_spots": [k for k in ("start", "finish") if k in spots],
@@ -384,6 +462,7 @@ def gate_anchor_arrays(
         offset=offset,
         turns=turns,
         passes=passes,
+        fits=fits,
     )
 
 
@@ -477,11 +556,16 @@ def gate_anchor_table(
             q = quat_multiply(qz, qn)
     g = normal_gravity(frame.lat, frame.h) if frame is not None else G_STANDARD
     dist = np.where(np.isfinite(cr["distance"]), cr["distance"], np.nan)
+    mag = None
+    if p.pass_fit and all(c in table.column_names for c in ("mag_x", "mag_y", "mag_z")):
+        m3 = schema.float_columns(table, ("mag_x", "mag_y", "mag_z"))
+        okm = np.isfinite(m3).all(axis=1)
+        mag = (t[okm], m3[okm]) if okm.sum() > 10 else None
     from sportfusion.estimators.kalman import CovarianceError
 
     try:
         res = gate_anchor_arrays(
-            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots
+            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, mag
         )
     except CovarianceError as exc:
         raise InputError(f"the smoother failed: {exc}") from exc
@@ -525,6 +609,11 @@ def gate_anchor_table(
     meta["gate_anchor"] = {
         "method": "gates paper Figure 2 (sacrum): strap-down, EKS 1, relative anchors, matching, EKS 2 (1 m, 0.1 m)",
         "attitude": "session q0..q3" if q is not None else "strap-down with drift correction",
+        "anchors": "pass fit (bar magnet) where it converged, else the peak model"
+        if res.fits is not None
+        else "peak model (eqs 1-6)",
+        "pass_fits": None if res.fits is None else int(sum(f.ok for f in res.fits)),
+        "survey_depth_m": p.survey_depth,
         "anchors_every": p.anchors_every,
         "static_height_m": p.static_height if spots else None,
         **res.passes,
