@@ -438,6 +438,7 @@ def smoothing_spline(
     *,
     segments: list[tuple[float, float, float]] | None = None,
     sigma: np.ndarray | None = None,
+    knots: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SplineFit:
     """Fit the weighted smoothing cubic spline of eq 5, column by column.
 
@@ -460,31 +461,26 @@ def smoothing_spline(
     sigma : array (n,) or (n, d), optional
         Input 1-sigma [same unit as y]; when given, :attr:`SplineFit.std`
         holds the propagated 1-sigma at the knots (not with ``segments``).
+    knots : (g, gamma), each (n, d), optional
+        The knot values and second derivatives of this very fit (same ``t``, ``y``, ``w`` and ``lam``, no
+        ``segments``) where the caller has already solved it (the robust screen's last pass,
+        :func:`sportfusion.estimators.spline_robust.robust_fit`): taken as they are, only the 1-sigma is
+        computed.
 
     Returns
     -------
     SplineFit
     """
-    t = np.asarray(t, dtype=float)
-    y2 = np.asarray(y, dtype=float)
-    y2 = y2.reshape(-1, 1) if y2.ndim == 1 else y2
+    t, y2, h, W = _validated(t, y, w)
     n, d = y2.shape
-    if t.shape != (n,):
-        raise InputError(f"{t.size} times for {n} observations")
-    if n < 2:
-        raise InputError(f"a smoothing spline needs at least 2 epochs with a position, got {n}")
-    h = np.diff(t)
-    if not np.all(h > 0) or not np.all(np.isfinite(y2)):
-        problem = time_step_problem(t) or "a position that is not finite"
-        raise InputError(f"epoch times must be strictly increasing and positions finite: {problem}")
-    W = np.ones((n, d)) if w is None else np.broadcast_to(np.asarray(w, float).reshape(n, -1), (n, d))
-    if not np.all(W > 0) or not np.all(np.isfinite(W)):
-        raise InputError("spline weights must be positive and finite")
     S = None if sigma is None else np.broadcast_to(np.asarray(sigma, float).reshape(n, -1), (n, d))
     g = np.empty((n, d))
     gam = np.empty((n, d))
     lams = np.empty(d)
-    if lam is not None and not segments and np.all(W == W[:, :1]):
+    if knots is not None and lam is not None and not segments:
+        g, gam = knots
+        lams[:] = float(lam)
+    elif lam is not None and not segments and np.all(W == W[:, :1]):
         # one weight vector for all columns: one factorisation, d right-hand sides
         g, gam = _reinsch(h, y2, W[:, 0], penalty_from_lambda(float(lam)))
         lams[:] = float(lam)
@@ -514,6 +510,29 @@ def smoothing_spline(
             cols.append(cols[same] if same is not None else _propagated_std(h, W[:, c], alphas[c], S[:, c]))
         std = np.column_stack(cols)
     return SplineFit(NaturalCubicSpline(t, g, gam), lams, alphas, std)
+
+
+def _validated(
+    t: np.ndarray, y: np.ndarray, w: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, y, h, W)`` of :func:`smoothing_spline`'s arguments as float arrays (``y`` and ``W`` (n, d)), or
+    InputError: times not strictly increasing, positions not finite, weights not positive and finite."""
+    t = np.asarray(t, dtype=float)
+    y2 = np.asarray(y, dtype=float)
+    y2 = y2.reshape(-1, 1) if y2.ndim == 1 else y2
+    n, d = y2.shape
+    if t.shape != (n,):
+        raise InputError(f"{t.size} times for {n} observations")
+    if n < 2:
+        raise InputError(f"a smoothing spline needs at least 2 epochs with a position, got {n}")
+    h = np.diff(t)
+    if not np.all(h > 0) or not np.all(np.isfinite(y2)):
+        problem = time_step_problem(t) or "a position that is not finite"
+        raise InputError(f"epoch times must be strictly increasing and positions finite: {problem}")
+    W = np.ones((n, d)) if w is None else np.broadcast_to(np.asarray(w, float).reshape(n, -1), (n, d))
+    if not np.all(W > 0) or not np.all(np.isfinite(W)):
+        raise InputError("spline weights must be positive and finite")
+    return t, y2, h, W
 
 
 def _propagated_std(h: np.ndarray, w: np.ndarray, alpha: float, sigma: np.ndarray) -> np.ndarray:
@@ -638,10 +657,13 @@ def epoch_weights(w_amb: np.ndarray, sigma_pos: np.ndarray | None) -> np.ndarray
     w_amb = np.asarray(w_amb, float)
     if sigma_pos is None:
         return w_amb
-    s = np.array(sigma_pos, dtype=float)
+    s = np.asarray(sigma_pos, dtype=float)
     ok = np.isfinite(s) & (s > 0)
     if not ok.any():
         return w_amb
+    if ok.all():  # nothing to fill
+        return (w_amb[:, None] / s) if s.ndim == 2 else w_amb / s
+    s = s.copy()
     s2 = s.reshape(s.shape[0], -1)
     ok2 = ok.reshape(s2.shape)
     for c in range(s2.shape[1]):

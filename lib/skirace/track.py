@@ -61,7 +61,7 @@ from sportfusion.core.rotations import ned_to_local
 from sportfusion.core.stats import median
 from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, gcv_lambda, smoothing_spline
 from sportfusion.estimators.spline_gaps import gap_std
-from sportfusion.estimators.spline_robust import robust_weights
+from sportfusion.estimators.spline_robust import robust_fit
 
 GAP_FACTOR = 1.5  # an interval longer than this times the median epoch spacing is a data gap
 BREAK_FACTOR = 5.0  # a gap longer than --max-gap and this many median spacings splits the track
@@ -128,21 +128,22 @@ def smooth_track(
     """
     t = np.asarray(t, float)
     pos = np.asarray(pos, float)
-    has = np.all(np.isfinite(pos), axis=1)
     warnings: list[str] = []
-    k = np.flatnonzero(has)
+    every_epoch = bool(np.isfinite(pos).all())  # a GNSS-only table: every row is an epoch (no copies, no row search)
+    has = np.ones(t.size, bool) if every_epoch else np.all(np.isfinite(pos), axis=1)
+    k = np.arange(t.size) if every_epoch else np.flatnonzero(has)
     if k.size < 4:
         raise InputError(f"only {k.size} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
-    every_epoch = k.size == t.size  # a GNSS-only table: every row is an epoch (no copies, no row search)
-    tk = t if every_epoch else t[k]
-    yk = pos if every_epoch else pos[k]
-    sk_in = None if sigma is None else np.asarray(sigma, float)[k]  # (a copy: changed in place below)
+    sel = slice(None) if every_epoch else k  # the epochs' rows (every row: views, not copies)
+    tk, yk = t[sel], pos[sel]
+    sk_in = None if sigma is None else np.asarray(sigma, float)[sel]  # (maybe the caller's: copied before filling)
+    fk = None if fix is None else np.asarray(fix, float)[sel]
     if weighting == "uniform":
         # one weight for every epoch, on the scale of eq 6's fixed epochs so that lambda keeps its meaning
-        sk0 = None if sigma is None else np.asarray(sigma, float)[k]
+        sk0 = sk_in
         scale = np.nanmedian(sk0, axis=0) if sk0 is not None and np.isfinite(sk0).any() else np.ones(3)
-        if fix is not None and sk0 is not None:
-            fixed = np.asarray(fix, float)[k] == 4
+        if fk is not None and sk0 is not None:
+            fixed = fk == 4
             if fixed.any() and np.isfinite(sk0[fixed]).any():
                 scale = np.nanmedian(sk0[fixed], axis=0)
         w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (k.size, 3))
@@ -151,9 +152,8 @@ def smooth_track(
             warnings.append("no gnss_fix column: every epoch is weighted as RTK fixed")
             w_amb = np.ones(k.size)
         else:
-            f = np.asarray(fix, float)[k]
             w_amb = ambiguity_weights(
-                np.where(np.isfinite(f), f, -1).astype(int),
+                np.where(np.isfinite(fk), fk, -1).astype(int),
                 w_float=w_float,
                 w_trans=w_trans,
                 no_trans=no_trans,
@@ -163,24 +163,23 @@ def smooth_track(
     else:
         raise InputError(f"weighting {weighting!r} is not eq6 or uniform")
     sk = sk_in
-    if sk is not None and not np.isfinite(sk).any():
-        sk = None
-    if sk is not None:
-        ok = np.isfinite(sk) & (sk > 0)
+    ok = None if sk is None else np.isfinite(sk) & (sk > 0)
+    if sk is not None and not ok.all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+        sk = sk.copy()
         for c in range(3):
-            if not ok[:, c].any():
+            if not ok[:, c].any():  # no sigma for an axis: no 1-sigma out
                 sk = None
                 break
-            if not ok[:, c].all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+            if not ok[:, c].all():
                 sk[~ok[:, c], c] = median(sk[ok[:, c], c])
     w = np.broadcast_to(np.asarray(w, float).reshape(k.size, -1), (k.size, 3))
     vk = None
     spk = None
     if robust:
-        vk = None if vel is None else np.asarray(vel, float)[k]
+        vk = None if vel is None else np.asarray(vel, float)[sel]
         if vk is not None:
             vk = vk[:, : (3 if np.isfinite(vk[:, 2]).any() else 2)]
-        spk = None if speed is None or vk is not None else np.asarray(speed, float)[k]
+        spk = None if speed is None or vk is not None else np.asarray(speed, float)[sel]
 
     # the track's segments: split at the gaps the data cannot bridge (module text)
     n = t.size
@@ -199,10 +198,11 @@ def smooth_track(
     rw = np.ones(k.size)
     fits = []
     for a, b in fitted:
-        ws = np.array(w[a:b], float)
+        ws = w[a:b]
         ss = None if sk is None else sk[a:b]
+        knots = None  # the robust screen's last fit, when it is the final one
         if robust:
-            rws = robust_weights(
+            rws, knots = robust_fit(
                 tk[a:b],
                 yk[a:b],
                 ws,
@@ -212,7 +212,8 @@ def smooth_track(
                 speed=None if spk is None else spk[a:b],
             )
             rw[a:b] = rws
-            ws = ws * rws[:, None]
+            if rws.min() < 1.0:  # (times 1: the same weights)
+                ws = ws * rws[:, None]
         if lam is None and robust and (rw[a:b] < 0.1).any() and (rw[a:b] >= 0.1).sum() >= 4:
             # GCV chooses lambda on the fixes the robust screen kept: a weighted-down outlier still counts in
             # GCV's trace and pulls its choice towards interpolation, which then follows the outliers
@@ -220,7 +221,8 @@ def smooth_track(
             lam_axes = [gcv_lambda(tk[a:b][keep], yk[a:b][keep, c], ws[keep, c]) for c in range(3)]
             fits.append(_fit_axes(tk[a:b], yk[a:b], ws, lam_axes, segments, ss))
         else:
-            fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss))
+            reuse = knots if lam is not None and not segments else None
+            fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss, knots=reuse))
     if robust:
         n_out = int(np.sum(rw < 0.1))
         if n_out:
@@ -265,10 +267,8 @@ def smooth_track(
 
     # a consumer track (no RTK fixed/float epoch, heights not stated to better than 0.2 m): its height wiggles
     # by metres from fix to fix, so speed and distance take the height smoothed over VERTICAL_WINDOW
-    fk = None if fix is None else np.asarray(fix, float)[k]
     rtk = fk is not None and bool(np.isin(fk, (4, 5)).any())
-    sv_med = float(median(sk[:, 2])) if sk is not None else np.inf
-    consumer = not rtk and sv_med > 0.2
+    consumer = not rtk and (sk is None or float(median(sk[:, 2])) > 0.2)
     cols: dict[str, np.ndarray] = {}
     names = [f"{p}{a}" for p in ("", "v", "a") for a in "xyz"] + ["speed", "distance", "course"]
     with_std = fits[0].std is not None
@@ -286,7 +286,7 @@ def smooth_track(
         r0 = int(np.searchsorted(t, tk[a], side="left"))
         r1 = int(np.searchsorted(t, tk[b - 1], side="right"))
         rows = r0 + np.flatnonzero(cover[r0:r1])
-        tr = t[rows]
+        tr = t[r0:r1] if rows.size == r1 - r0 else t[rows]
         segment_no[rows] = s_i
         val, d1, d2 = fit.spline.evaluate(tr)
         if consumer:
@@ -294,7 +294,8 @@ def smooth_track(
             seg_end = float(dist[-1])
         else:
             speed_s, dist = np.sqrt(np.einsum("ij,ij->i", d1, d1)), fit.spline.arc_length(tr)
-            seg_end = float(fit.spline.arc_length(np.array([tk[b - 1]]))[0])
+            # the segment's last row is its last epoch (an epoch always gets a value)
+            seg_end = float(dist[-1] if tr[-1] == tk[b - 1] else fit.spline.arc_length(np.array([tk[b - 1]]))[0])
         seg_cols = {"speed": speed_s, "distance": carried + dist}
         for i, ax in enumerate("xyz"):
             seg_cols[ax], seg_cols[f"v{ax}"], seg_cols[f"a{ax}"] = val[:, i], d1[:, i], d2[:, i]
@@ -332,7 +333,7 @@ def smooth_track(
     main = max(range(len(fitted)), key=lambda i: fitted[i][1] - fitted[i][0])
     info = {
         "epochs": int(k.size),
-        "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
+        "not_fixed": int(np.sum(fk != 4)) if fk is not None else 0,
         "filled_rows": int(filled.sum()),
         "downweighted": int(np.sum(rw < 0.1)),
         # outside the --segment spans when they are given; of the longest track segment when split
@@ -426,13 +427,15 @@ def _segment_std(
 ) -> dict[str, np.ndarray]:
     """std_x/y/z at ``rows`` of one track segment: the propagated noise, and inside its gaps the bridge error."""
     edge = _at_rows(fit.std, tk, t, rows, has)
-    big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
-    gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
-    # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
-    # (the spline's values at the knots are its knot values g: no evaluation needed)
-    resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
     g = in_gap[rows]
-    inside_gap = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid)) if g.any() else None
+    inside_gap = None
+    if g.any():
+        big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
+        gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
+        # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
+        # (the spline's values at the knots are its knot values g: no evaluation needed)
+        resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
+        inside_gap = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
     out = {}
     for i, a in enumerate("xyz"):
         s = edge[:, i].copy()
