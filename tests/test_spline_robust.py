@@ -129,13 +129,22 @@ def test_the_shortcuts_give_the_long_ways_numbers(monkeypatch):
     stalled = clean.copy()
     stalled[700:712] = stalled[700]  # a stall, then a catch-up step
     stalled[1500] += [5.0, 0.0, 0.0]  # a spike
-    for y in (clean, stalled):
+    stepped = clean.copy()
+    stepped[1200:] += [0.0, 0.1, 0.0]  # a step longer than a standstill allows, but no jump at the speed
+    for y in (clean, stepped, stalled):
         dist, dt = R._steps(t, y)
         lazy, full = R._jumps(dist, dt, None, sig), R._jumps(dist, dt, R.step_speed(t, y), sig)
         np.testing.assert_array_equal(lazy[2], full[2])
         np.testing.assert_array_equal(R._stalls(dist, dt, *lazy), R._stalls(dist, dt, *full))
-    assert R._jumps(*R._steps(t, clean), None, sig)[0] is None  # (no step long enough: no running median)
+        if y is not stalled:  # no jump: the speed was not computed for every epoch
+            assert lazy[0] is None
+    dist, dt = R._steps(t, stepped)
+    assert (dist > dt + 4 * np.sqrt(2) * 0.02).sum() == 1  # (the speed was taken at that step's ends)
     assert R._jumps(*R._steps(t, stalled), None, sig)[2].size
+    np.testing.assert_array_equal(
+        R._running_median_at(R._step_speeds(dist, dt), np.array([0, 5, 1000, n - 1]), 15),
+        R.step_speed(t, stepped)[[0, 5, 1000, n - 1]],
+    )
     # (3) the screen's last fit is the fit with the final weights, to the bit; smooth_track reuses it
     w = 1.0 / sig
     rw, knots = R.robust_fit(t, clean, w, 0.9, sig)

@@ -508,7 +508,9 @@ def smoothing_spline(
                 None,
             )
             cols.append(cols[same] if same is not None else _propagated_std(h, W[:, c], alphas[c], S[:, c]))
-        std = np.column_stack(cols)
+        std = np.empty((n, d), order="F")  # (each column contiguous, as the output table takes it)
+        for c, col in enumerate(cols):
+            std[:, c] = col
     return SplineFit(NaturalCubicSpline(t, g, gam), lams, alphas, std)
 
 

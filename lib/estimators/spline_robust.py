@@ -118,9 +118,11 @@ def _loo_fit(
                 break
             parts.append((res[0], res[1], W[:, c : c + 1] * res[2][:, None]))
         else:
-            g, gam, hii = parts[0] if same else (np.hstack(q) for q in zip(*parts, strict=True))
-            den = np.maximum(1.0 - hii, 1e-9)
-            return (y2 - g) / (den if power == 1.0 else den**power), g, gam
+            g, gam, den = parts[0] if same else (np.hstack(q) for q in zip(*parts, strict=True))
+            np.maximum(np.subtract(1.0, den, out=den), 1e-9, out=den)  # 1 - H_ii, in place (as below)
+            e = np.subtract(y2, g)
+            e /= den if power == 1.0 else den**power
+            return e, g, gam
     fit = smoothing_spline(t, y2, W, lam)
     g, gam = fit.spline.g, fit.spline.gamma
     r = y2 - g
@@ -171,11 +173,13 @@ def _jumps(
 ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray]:
     """The steps longer than the speed allows (:func:`speed_spikes`), with the valid speeds and ``vmax``.
 
-    ``speed`` None: the fixes' own running-median speed (:func:`step_speed`), computed only where some step is
-    longer than ``dt + 4 sqrt(2) sigma`` (what a standstill allows: a faster speed only allows more), so that
-    a track without such a step costs no running median.  Returns ``(sp, vmax, jumps)``: the speed [m/s] per
-    epoch (NaN where wrapped or invalid), the larger of the two speeds per step [m/s] (both None when no step
-    can be a jump), and the indices of the jump steps.
+    ``speed`` None: the fixes' own running-median speed (:func:`step_speed`).  A step no longer than
+    ``dt + 4 sqrt(2) sigma`` (what a standstill allows; a speed only allows more) is no jump whatever the
+    speed, so where the other steps are few the speed is first taken at their ends only, and computed for
+    every epoch only when one of them is a jump (the stall screen then walks along it).  Returns
+    ``(sp, vmax, jumps)``: the speed [m/s] per epoch (NaN where wrapped or invalid), the larger of the two
+    speeds per step [m/s] (both None when there is no jump and they were not computed), and the indices of
+    the jump steps.
     """
     n = dist.size + 1
     sg = np.full(n, np.nan) if sigma is None else np.asarray(sigma, float).reshape(n, -1)[:, 0]
@@ -183,15 +187,27 @@ def _jumps(
     if bad.any():  # (the median only where something is filled)
         sg = np.where(bad, np.nanmedian(sg) if np.isfinite(sg).any() else 3.0, sg)
     slack = 4.0 * np.sqrt(2.0) * np.fmax(sg[1:], sg[:-1])
+
+    def valid(s: np.ndarray) -> np.ndarray:  # a wrapped or invalid value is no speed
+        return np.where((s >= 0) & (s < 150.0), s, np.nan)
+
+    def jump(vmax: np.ndarray, i: np.ndarray | slice) -> np.ndarray:
+        return np.isfinite(vmax) & (dist[i] > vmax * dt[i] * 1.2 + 1.0 * dt[i] + slack[i])
+
     if speed is None:
-        if not np.any(dist > dt + slack):  # (the speed term of `allowed` below is >= 0)
-            return None, None, np.empty(0, np.intp)
-        speed = _step_speed(dist, dt, 31)
-    sp = np.asarray(speed, float)
-    sp = np.where((sp >= 0) & (sp < 150.0), sp, np.nan)  # a wrapped or invalid value is no speed
+        cand = np.flatnonzero(dist > dt + slack)  # (the speed term of `jump` is >= 0)
+        if not cand.size:
+            return None, None, cand
+        v = _step_speeds(dist, dt)
+        if 128 * cand.size < n:
+            ends = np.union1d(cand, cand + 1)
+            sp = valid(_running_median_at(v, ends, 15))
+            if not jump(np.fmax(sp[np.searchsorted(ends, cand + 1)], sp[np.searchsorted(ends, cand)]), cand).any():
+                return None, None, np.empty(0, np.intp)
+        speed = _running_median(v, 15)
+    sp = valid(np.asarray(speed, float))
     vmax = np.fmax(sp[1:], sp[:-1])
-    allowed = vmax * dt * 1.2 + 1.0 * dt + slack
-    return sp, vmax, np.flatnonzero(np.isfinite(vmax) & (dist > allowed))
+    return sp, vmax, np.flatnonzero(jump(vmax, slice(None)))
 
 
 def speed_spikes(
@@ -263,6 +279,26 @@ def _running_median_py(v: np.ndarray, half: int) -> np.ndarray:
     return out
 
 
+def _running_median(v: np.ndarray, half: int) -> np.ndarray:
+    out = _banded.running_median(v, half)
+    return out if out is not None else _running_median_py(v, half)
+
+
+def _running_median_at(v: np.ndarray, idx: np.ndarray, half: int) -> np.ndarray:
+    """``_running_median(v, half)[idx]``, each value from its own window only (for a few epochs)."""
+    out = np.empty(idx.size)
+    for j, i in enumerate(idx):
+        lo = max(i - half, 0)
+        out[j] = _running_median(v[lo : i + half + 1], half)[i - lo]
+    return out
+
+
+def _step_speeds(dist: np.ndarray, dt: np.ndarray) -> np.ndarray:
+    """Per epoch, the horizontal step speed [m/s] of the step ending at it (the first epoch: its following one)."""
+    v = dist / dt
+    return np.r_[v[0], v]
+
+
 def step_speed(t: np.ndarray, y: np.ndarray, window: int = 31) -> np.ndarray:
     """Speed over ground [m/s] estimated from the fixes alone: the running median (over ``window`` epochs)
     of the horizontal step speeds ``|y_{i+1} - y_i| / dt``, one value per epoch.
@@ -272,16 +308,7 @@ def step_speed(t: np.ndarray, y: np.ndarray, window: int = 31) -> np.ndarray:
     """
     if t.size < 3:
         return np.full(t.size, np.nan)
-    return _step_speed(*_steps(t, y), window)
-
-
-def _step_speed(dist: np.ndarray, dt: np.ndarray, window: int) -> np.ndarray:
-    """:func:`step_speed` from the steps (:func:`_steps`)."""
-    v = dist / dt
-    v = np.r_[v[0], v]  # epoch i gets the step that ends at it (the first its following step)
-    half = max(window // 2, 1)
-    out = _banded.running_median(v, half)
-    return out if out is not None else _running_median_py(v, half)
+    return _running_median(_step_speeds(*_steps(t, y)), max(window // 2, 1))
 
 
 def stall_fixes(t: np.ndarray, y: np.ndarray, speed: np.ndarray, sigma: np.ndarray | None) -> np.ndarray:
@@ -398,12 +425,13 @@ def robust_fit(
     spv, vmax, jumps = _jumps(dist, dt, sp, sigma)
     base[_spikes(y, jumps, 10)] = 1e-6
     base[_stalls(dist, dt, spv, vmax, jumps)] = 1e-6
+    del dist, dt, spv, vmax  # (8 MB each at 1e6 epochs)
     loo = np.ones(n)
     for _ in range(iterations):
         used = base * loo
-        e, g, gam = _loo_fit(t, y, w * used[:, None], lam)
+        e, g, gam = _loo_fit(t, y, w if used.min() == 1.0 else w * used[:, None], lam)  # (w times 1: w)
         new = _weights(e, sigma, floor, c)
-        done = np.allclose(new, loo, atol=1e-3)
+        done = (new.min() == 1.0 and loo.min() == 1.0) or np.allclose(new, loo, atol=1e-3)  # (all 1: the same)
         loo = new
         if done:
             break

@@ -131,10 +131,11 @@ def smooth_track(
     warnings: list[str] = []
     every_epoch = bool(np.isfinite(pos).all())  # a GNSS-only table: every row is an epoch (no copies, no row search)
     has = np.ones(t.size, bool) if every_epoch else np.all(np.isfinite(pos), axis=1)
-    k = np.arange(t.size) if every_epoch else np.flatnonzero(has)
-    if k.size < 4:
-        raise InputError(f"only {k.size} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
-    sel = slice(None) if every_epoch else k  # the epochs' rows (every row: views, not copies)
+    k = None if every_epoch else np.flatnonzero(has)  # the epochs' rows (None: every row)
+    ne = t.size if k is None else k.size  # epochs
+    if ne < 4:
+        raise InputError(f"only {ne} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
+    sel = slice(None) if k is None else k  # (every row: views, not copies)
     tk, yk = t[sel], pos[sel]
     sk_in = None if sigma is None else np.asarray(sigma, float)[sel]  # (maybe the caller's: copied before filling)
     fk = None if fix is None else np.asarray(fix, float)[sel]
@@ -146,11 +147,11 @@ def smooth_track(
             fixed = fk == 4
             if fixed.any() and np.isfinite(sk0[fixed]).any():
                 scale = np.nanmedian(sk0[fixed], axis=0)
-        w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (k.size, 3))
+        w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (ne, 3))
     elif weighting == "eq6":
         if fix is None:
             warnings.append("no gnss_fix column: every epoch is weighted as RTK fixed")
-            w_amb = np.ones(k.size)
+            w_amb = np.ones(ne)
         else:
             w_amb = ambiguity_weights(
                 np.where(np.isfinite(fk), fk, -1).astype(int),
@@ -160,6 +161,7 @@ def smooth_track(
                 edge_factor=edge_factor,
             )
         w = epoch_weights(w_amb, sk_in)  # (epoch_weights copies what it fills)
+        del w_amb
     else:
         raise InputError(f"weighting {weighting!r} is not eq6 or uniform")
     sk = sk_in
@@ -172,7 +174,7 @@ def smooth_track(
                 break
             if not ok[:, c].all():
                 sk[~ok[:, c], c] = median(sk[ok[:, c], c])
-    w = np.broadcast_to(np.asarray(w, float).reshape(k.size, -1), (k.size, 3))
+    w = np.broadcast_to(np.asarray(w, float).reshape(ne, -1), (ne, 3))
     vk = None
     spk = None
     if robust:
@@ -187,7 +189,7 @@ def smooth_track(
     step = float(median(dtk))
     split_at = max(max_gap, BREAK_FACTOR * step)
     brk = np.flatnonzero(dtk > split_at)
-    bounds = list(zip(np.r_[0, brk + 1], np.r_[brk + 1, k.size], strict=True))
+    bounds = list(zip(np.r_[0, brk + 1], np.r_[brk + 1, ne], strict=True))
     fitted = [(a, b) for a, b in bounds if b - a >= 2]
     if not fitted:
         raise InputError(
@@ -195,7 +197,7 @@ def smooth_track(
         )
     isolated = sum(1 for a, b in bounds if b - a < 2)
 
-    rw = np.ones(k.size)
+    rw = np.ones(ne)
     fits = []
     for a, b in fitted:
         ws = w[a:b]
@@ -223,25 +225,26 @@ def smooth_track(
         else:
             reuse = knots if lam is not None and not segments else None
             fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss, knots=reuse))
+    del w, ws  # (the weights, 24 MB at 1e6 epochs, are not held while the output columns are made)
     if robust:
         n_out = int(np.sum(rw < 0.1))
         if n_out:
             how = "receiver velocity and " if vk is not None else ("receiver speed and " if spk is not None else "")
             warnings.append(
-                f"{n_out} of {k.size} GNSS fix(es) disagree with their neighbours ({how}the spline through the others) "
+                f"{n_out} of {ne} GNSS fix(es) disagree with their neighbours ({how}the spline through the others) "
                 "beyond their stated accuracy: weighted down (see column gnss_weight)"
             )
 
     # rows that get a value: inside a fitted segment and not in a gap longer than max_gap (an epoch always
     # does; only the rows without a position are searched among the epochs)
-    seg_of_epoch = np.full(k.size, -1)
-    for s_i, (a, b) in enumerate(fitted):
-        seg_of_epoch[a:b] = s_i
     in_gap = np.zeros(n, bool)
     too_long = np.zeros(n, bool)
     cover = has.copy()
+    lone = np.ones(ne, bool)  # epochs in no fitted segment: isolated fixes between long gaps
+    for a, b in fitted:
+        lone[a:b] = False
     if isolated:
-        cover[k[seg_of_epoch < 0]] = False
+        cover[np.flatnonzero(has)[lone]] = False
     nopos = np.flatnonzero(~has)
     if nopos.size:
         tn = t[nopos]
@@ -293,14 +296,20 @@ def smooth_track(
             speed_s, dist = _consumer_speed_distance(fit.spline, tk[a], tk[b - 1], tr, d1)
             seg_end = float(dist[-1])
         else:
-            speed_s, dist = np.sqrt(np.einsum("ij,ij->i", d1, d1)), fit.spline.arc_length(tr)
+            speed_s = np.einsum("ij,ij->i", d1, d1)
+            speed_s, dist = np.sqrt(speed_s, out=speed_s), fit.spline.arc_length(tr)
             # the segment's last row is its last epoch (an epoch always gets a value)
             seg_end = float(dist[-1] if tr[-1] == tk[b - 1] else fit.spline.arc_length(np.array([tk[b - 1]]))[0])
-        seg_cols = {"speed": speed_s, "distance": carried + dist}
+        dist += carried
+        seg_cols = {"speed": speed_s, "distance": dist}
         for i, ax in enumerate("xyz"):
             seg_cols[ax], seg_cols[f"v{ax}"], seg_cols[f"a{ax}"] = val[:, i], d1[:, i], d2[:, i]
-        # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product)
-        seg_cols["course"] = np.arctan2(d1[:, 0] * sa + d1[:, 1] * ca, d1[:, 0] * ca - d1[:, 1] * sa)
+        # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product; in place, as the
+        # columns at 1e6 rows are 8 MB each)
+        east, north = d1[:, 0] * sa, d1[:, 0] * ca
+        east += d1[:, 1] * ca
+        north -= d1[:, 1] * sa
+        seg_cols["course"] = np.arctan2(east, north, out=east)
         carried += seg_end
         if with_std:
             seg_cols.update(_segment_std(fit, tk[a:b], yk[a:b], t, rows, has, in_gap, step))
@@ -321,9 +330,9 @@ def smooth_track(
             "(spline_filled; their std grows across the gap)"
         )
     if robust:
-        gw = rw.copy()
+        gw = rw.copy() if isolated else rw
         if isolated:
-            gw[seg_of_epoch < 0] = np.nan
+            gw[lone] = np.nan
         if every_epoch:
             cols["gnss_weight"] = gw
         else:
@@ -332,7 +341,7 @@ def smooth_track(
             cols["gnss_weight"] = full
     main = max(range(len(fitted)), key=lambda i: fitted[i][1] - fitted[i][0])
     info = {
-        "epochs": int(k.size),
+        "epochs": int(ne),
         "not_fixed": int(np.sum(fk != 4)) if fk is not None else 0,
         "filled_rows": int(filled.sum()),
         "downweighted": int(np.sum(rw < 0.1)),
@@ -438,8 +447,9 @@ def _segment_std(
         inside_gap = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
     out = {}
     for i, a in enumerate("xyz"):
-        s = edge[:, i].copy()
+        s = edge[:, i]
         if inside_gap is not None:
+            s = s.copy()
             s[g] = inside_gap[g, i]
         out[f"std_{a}"] = s
     return out
