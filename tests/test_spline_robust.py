@@ -131,13 +131,14 @@ def test_the_shortcuts_give_the_long_ways_numbers(monkeypatch):
     stalled[1500] += [5.0, 0.0, 0.0]  # a spike
     stepped = clean.copy()
     stepped[1200:] += [0.0, 0.1, 0.0]  # a step longer than a standstill allows, but no jump at the speed
-    for y in (clean, stepped, stalled):
+    fast = clean * 20.0  # every step longer than a standstill allows: the speed at every epoch at once
+    fast[300] += [30.0, 0.0, 0.0]
+    for y in (clean, stepped, stalled, fast):
         dist, dt = R._steps(t, y)
         lazy, full = R._jumps(dist, dt, None, sig), R._jumps(dist, dt, R.step_speed(t, y), sig)
         np.testing.assert_array_equal(lazy[2], full[2])
         np.testing.assert_array_equal(R._stalls(dist, dt, *lazy), R._stalls(dist, dt, *full))
-        if y is not stalled:  # no jump: the speed was not computed for every epoch
-            assert lazy[0] is None
+        assert (lazy[0] is None) == (y is clean or y is stepped)  # no jump: no speed at every epoch
     dist, dt = R._steps(t, stepped)
     assert (dist > dt + 4 * np.sqrt(2) * 0.02).sum() == 1  # (the speed was taken at that step's ends)
     assert R._jumps(*R._steps(t, stalled), None, sig)[2].size
