@@ -267,4 +267,6 @@ def test_std_at_rows_is_numpy_interp() -> None:
     got = _at_rows(values, tk, t, rows, has)
     ref = np.column_stack([np.interp(t[rows], tk, values[:, c]) for c in range(3)])
     assert np.array_equal(got, ref)
+    assert np.array_equal(_at_rows(values, tk, t, slice(rows[0], rows[-1] + 1), has), ref)  # rows as a slice
     assert _at_rows(values, tk, tk, np.arange(tk.size), np.ones(tk.size, bool)) is values  # epochs only: no work
+    assert _at_rows(values, tk, tk, slice(0, tk.size), np.ones(tk.size, bool)) is values

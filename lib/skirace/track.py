@@ -288,8 +288,8 @@ def smooth_track(
     for s_i, ((a, b), fit) in enumerate(zip(fitted, fits, strict=True)):
         r0 = int(np.searchsorted(t, tk[a], side="left"))
         r1 = int(np.searchsorted(t, tk[b - 1], side="right"))
-        rows = r0 + np.flatnonzero(cover[r0:r1])
-        tr = t[r0:r1] if rows.size == r1 - r0 else t[rows]
+        rows = slice(r0, r1) if cover[r0:r1].all() else r0 + np.flatnonzero(cover[r0:r1])  # (a slice: views)
+        tr = t[rows]
         segment_no[rows] = s_i
         val, d1, d2 = fit.spline.evaluate(tr)
         if consumer:
@@ -429,7 +429,7 @@ def _segment_std(
     tk: np.ndarray,
     yk: np.ndarray,
     t: np.ndarray,
-    rows: np.ndarray,
+    rows: np.ndarray | slice,
     has: np.ndarray,
     in_gap: np.ndarray,
     step: float,
@@ -455,18 +455,22 @@ def _segment_std(
     return out
 
 
-def _at_rows(values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray, has: np.ndarray) -> np.ndarray:
-    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``.
+def _at_rows(
+    values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray | slice, has: np.ndarray
+) -> np.ndarray:
+    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``
+    (``rows`` indices or a slice).
 
     Equal to :func:`numpy.interp` per column; rows that are epochs (``has``) take their epoch's value
     directly and only the others are interpolated (on a GNSS-only table nothing is).
     """
     ep = has[rows]
-    if ep.all() and rows.size == tk.size:
+    if ep.all() and ep.size == tk.size:
         return values
-    out = np.empty((rows.size, values.shape[1]))
-    out[ep] = values[np.searchsorted(tk, t[rows[ep]])]
-    other = t[rows[~ep]]
+    tr = t[rows]
+    out = np.empty((ep.size, values.shape[1]))
+    out[ep] = values[np.searchsorted(tk, tr[ep])]
+    other = tr[~ep]
     for c in range(values.shape[1]):
         out[~ep, c] = np.interp(other, tk, values[:, c])
     return out
