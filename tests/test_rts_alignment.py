@@ -67,7 +67,9 @@ def jump():
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill(HILL)
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=7))
+    # the paper's sensor models: the alignment's own accuracy (on the full physics' misaligned, vibrating,
+    # filtered IMU it is 2.2 deg for this seed; bench/bench_skijump_independent.py measures the whole smoother there)
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=7, physics="paper"))
     tt = sim.truth_meta["skijump"]["times"]
     cfg = SmootherConfig()
     inp, _ = session_inputs(sim.session, sim.session_meta, hill, cfg, [tt["takeoff"]], [tt["touchdown"]])
@@ -235,7 +237,9 @@ def test_gnss_latency_found_and_removed():
     hill = load_hill(HILL)
     res = {}
     for lat in (0.0, 0.12):
-        sim = simulate_skijump(hill, SkiJumpConfig(seed=11, gnss_latency=lat))
+        # the paper's sensors (GNSS at the IMU, on its samples): the estimator against a latency alone; the full
+        # physics' 5.5 ms anti-aliasing delay and helmet lever arm shift the estimate (bench_skijump_independent)
+        sim = simulate_skijump(hill, SkiJumpConfig(seed=11, gnss_latency=lat, physics="paper"))
         tt = sim.truth_meta["skijump"]["times"]
         kw = {"takeoff": [tt["takeoff"]], "touchdown": [tt["touchdown"]]}
         for name, cfg in (("on", SmootherConfig()), ("off", SmootherConfig(estimate_latency=False))):
@@ -255,8 +259,9 @@ def test_simulated_wind_changes_the_flight_not_the_planned_length():
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill(HILL)
-    calm = simulate_skijump(hill, SkiJumpConfig(seed=5))
-    windy = simulate_skijump(hill, SkiJumpConfig(seed=5, wind=(3.0, 1.5)))
+    # the paper mode: the motion without the full physics' flutter and chatter, which would hide the gusts' share
+    calm = simulate_skijump(hill, SkiJumpConfig(seed=5, physics="paper"))
+    windy = simulate_skijump(hill, SkiJumpConfig(seed=5, wind=(3.0, 1.5), physics="paper"))
     # the planner finds the lift for the seed's distance with the wind included
     assert abs(windy.truth_meta["jump_length"] - calm.truth_meta["jump_length"]) < 0.3
     assert windy.truth_meta["skijump"]["motion"]["cla_flight"] != calm.truth_meta["skijump"]["motion"]["cla_flight"]
