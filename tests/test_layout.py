@@ -2,6 +2,9 @@
 
 * the core layer (``core``, ``estimators``, ``sim``, ``data``) never imports a sport or a cross-cutting package;
 * a sport (``skijump``, ``skirace``, ``gates``, ``climbing``) imports the core layer and itself only;
+* a sport's simulator (``lib/<sport>/sim*.py`` and ``lib/<sport>/sim/``) imports ``core``, the simulation toolkit
+  ``sim``, ``data`` and its own sport's simulator modules only -- never the estimator it scores (issue 39); the
+  exceptions (venue data such as a hill file) are named in :data:`SIM_EXCEPTIONS` with their reasons;
 * the cross-cutting packages (``ingest``, ``evaluate``, ``batch``, ``report``) import the core layer and sports;
 * the library never imports the tools (nor click); a tool imports the library, the shared ``tools._cli`` /
   ``tools._options`` and the subcommand modules of its own command (``plot_figures``, ``simulate_*``);
@@ -20,6 +23,19 @@ CORE = {"core", "estimators", "sim", "data"}
 SPORTS = {"skijump", "skirace", "gates", "climbing"}
 CROSS = {"ingest", "evaluate", "batch", "report"}
 SUBCOMMANDS = {"plot": ("plot_figures",), "simulate": ("simulate_",)}
+#: What a sport's simulator may import besides its own simulator modules.
+SIM_ALLOWED = {"core", "sim", "data"}
+#: Modules of its own sport a simulator may import anyway, with the reason (issue 39).
+SIM_EXCEPTIONS = {
+    "sportfusion.skijump.hillfile": "venue data: the certified hill profile, site and gates of a hill file, "
+    "which the simulated jumper skis on; not the smoother's model",
+    "sportfusion.skirace.attitude": "Earth's rotation rate and the Coriolis term (physics constants); skirace's "
+    "simulator is outside issue 39's scope",
+    "sportfusion.gates.magnet": "pending issue 39's gates part (branch i39g), which gives the simulator its own "
+    "magnet physics",
+    "sportfusion.climbing._so3": "pending issue 39's climbing part (branch i39g)",
+    "sportfusion.climbing.holds": "pending issue 39's climbing part (branch i39g)",
+}
 
 
 def _module_name(path: Path, root: Path, package: str) -> str:
@@ -91,6 +107,34 @@ def test_core_imports_no_sport_and_nothing_cross_cutting(graph: dict[str, set[st
 def test_a_sport_imports_the_core_and_itself_only(graph: dict[str, set[str]]) -> None:
     bad = [(m, t) for m, ts in graph.items() if _area(m) in SPORTS for t in ts if _area(t) not in CORE | {"", _area(m)}]
     assert bad == []
+
+
+def _is_sim(module: str) -> bool:
+    """A sport's simulator module: ``sportfusion.<sport>.sim``, ``.sim_*`` or anything under ``.sim.``."""
+    parts = module.split(".")
+    return len(parts) > 2 and parts[1] in SPORTS and (parts[2] == "sim" or parts[2].startswith("sim_"))
+
+
+def _sim_violations(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    return [
+        (m, t)
+        for m in graph
+        if _is_sim(m)
+        for t in graph[m]
+        if _area(t) not in SIM_ALLOWED
+        and not (_is_sim(t) and _area(t) == _area(m))
+        and t not in SIM_EXCEPTIONS
+        and t != f"sportfusion.{_area(m)}"  # ``from sportfusion.<sport> import x`` names the package too
+    ]
+
+
+def test_a_sports_simulator_does_not_import_its_estimator(graph: dict[str, set[str]]) -> None:
+    sims = [m for m in graph if _is_sim(m)]
+    assert "sportfusion.skijump.sim.simulate" in sims and "sportfusion.gates.sim" in sims
+    assert _sim_violations(graph) == []
+    # the rule can fail: the estimator's model, or another sport's simulator, imported into a simulator
+    probe = {"sportfusion.skijump.sim.probe": {"sportfusion.skijump.kinematics", "sportfusion.gates.sim"}}
+    assert len(_sim_violations(probe)) == 2
 
 
 def test_the_library_never_imports_the_tools(graph: dict[str, set[str]]) -> None:
