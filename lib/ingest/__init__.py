@@ -65,6 +65,9 @@ class Options:
     rate : float or None
         Sampling rate [Hz] of an input whose file does not state one: Xsens exports
         timed by PacketCounter, generic CSVs whose time column counts ticks.
+    base : (lat [deg], lon [deg], h [m]) or None
+        RTKLIB e/n/u-baseline solutions: the base station's WGS84 position (ellipsoidal height);
+        default: the solution header's ``ref pos`` line.
     """
 
     geoid_offset: float | None = None
@@ -77,6 +80,7 @@ class Options:
     hold_map: str | None = None
     map_up: str = "z"
     rate: float | None = None
+    base: tuple[float, float, float] | None = None
 
 
 @dataclass
