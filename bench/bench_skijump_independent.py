@@ -71,7 +71,7 @@ def one(job: tuple[int, str]) -> dict:
         "variant": variant,
         "found": found,
         "pos3": math.sqrt(np.nanmean(e["x"] ** 2 + e["y"] ** 2 + e["z"] ** 2)),
-        "vel": math.sqrt(np.nanmean(e["vel_n"] ** 2 + e["vel_e"] ** 2 + e["vel_d"] ** 2)),
+        "vel": math.sqrt(np.nanmean(e["vx"] ** 2 + e["vy"] ** 2 + e["vz"] ** 2)),
         "jump": jl - sim.truth_meta["jump_length"],
         "td": td[0] - times["touchdown"],
     }

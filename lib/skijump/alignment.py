@@ -158,7 +158,8 @@ def gnss_latency(
     span: tuple[float, float],
     max_latency: float = 0.3,
     step: float = 0.005,
-) -> float | None:
+    with_std: bool = False,
+) -> float | None | tuple[float | None, float]:
     """The GNSS time-stamp latency [s] (the fix stamped t describes t - latency) from a smoothed pass.
 
     The accelerometer, rotated into NED by the smoothed attitude ``x[:, 6:10]`` (``q_BO``) and corrected by
@@ -168,6 +169,9 @@ def gnss_latency(
     and a linear drift per axis: the integration constant and a residual bias) is searched on a ``step``
     grid in ``[-max_latency, max_latency]`` and refined by a parabola.  Returns None with fewer than 20
     GNSS velocities in the span or a minimum on the grid's edge (not a delay the data show).
+
+    ``with_std``: also its standard error [s] from the parabola's curvature ``c''`` and the misfit per
+    degree of freedom ``s^2`` (``sqrt(2 s^2 / c'')``; inf where the parabola does not bend up): ``(tau, std)``.
     """
     from sportfusion.core.rotations import dcm_from_quat
 
@@ -192,10 +196,16 @@ def gnss_latency(
         mod.latency_misfit(f64(ts, dtype=float), f64(v_imu), f64(tg, dtype=float), vg, grid, np.empty_like(vg), c)
     i = int(np.argmin(c))
     if i == 0 or i == grid.size - 1:
-        return None
+        return (None, float("inf")) if with_std else None
     den = c[i - 1] - 2 * c[i] + c[i + 1]
     off = 0.5 * (c[i - 1] - c[i + 1]) / den if den > 0 else 0.0
-    return float(grid[i] + off * step)
+    tau = float(grid[i] + off * step)
+    if not with_std:
+        return tau
+    dof = max(3 * gk.size - 6, 1)
+    curv = den / step**2
+    std = float(np.sqrt(2.0 * max(float(c[i]), 0.0) / dof / curv)) if curv > 0 else float("inf")
+    return tau, std
 
 
 def _latency_misfit_numpy(

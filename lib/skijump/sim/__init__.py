@@ -13,6 +13,7 @@ VARIANT_NAMES = (
     "nominal",
     "multipath",
     "latency",
+    "synced",
     "lever",
     "scale",
     "misalign",

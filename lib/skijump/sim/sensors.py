@@ -126,6 +126,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "nominal": {},
     "multipath": {"multipath_rate": 1 / 8.0, "multipath_amp": (3.0, 8.0), "outlier_prob": 0.05},
     "latency": {"latency": 0.2},
+    "synced": {"latency": 0.0},
     "lever": {"antenna": (0.5, -0.35, -0.65)},
     "scale": {"acc_scale": 0.02, "gyr_scale": 0.02},
     "misalign": {"acc_misalign": 2.0, "gyr_misalign": 2.0},
@@ -135,7 +136,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "height": {"gm_v": (4.0, 30.0), "gm_h": (2.0, 60.0)},
     "boxcar": {"antialias": "boxcar"},
 }
-TUNING = ("nominal", "multipath", "latency", "scale", "vibration")
+TUNING = ("nominal", "multipath", "latency", "synced", "scale", "vibration")
 HELD_OUT = ("lever", "misalign", "temperature", "magtable", "height", "boxcar")
 
 
