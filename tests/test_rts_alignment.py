@@ -189,6 +189,7 @@ def test_gnss_latency_against_per_delay_least_squares():
     # reference: the IMU velocity as the function integrates it, each delay fitted by lstsq
     sel = np.flatnonzero((t >= span[0]) & (t <= span[1]))
     gk = sel[np.isfinite(vel[sel, 0])]
+    gk = gk[(t[gk] - 0.3 >= t[sel][0]) & (t[gk] + 0.3 <= t[sel][-1])]  # every trial delay inside the IMU's span
     a = u[sel, 3:6] + [0.0, 0.0, g0]
     v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * 0.01, axis=0)])
     basis = np.column_stack([np.ones(gk.size), t[gk]])
@@ -334,3 +335,26 @@ def test_forward_start_runs_from_the_rests_end(jump, monkeypatch):
         forward = [f for f in firsts if not f[2]]
         assert len(forward) == 1 and forward[0][0] == start
         assert any(f[2] and f[0] == inp.t[0] and f[1] == inp.t.size for f in firsts)
+
+
+def test_gnss_latency_with_its_standard_error_and_too_few_fixes():
+    """with_std: (tau, std) -- a delayed velocity step found within its standard error; too few fixes: (None, inf)."""
+    from sportfusion.skijump.alignment import gnss_latency
+
+    t = np.arange(0.0, 12.0, 0.01)
+    n = t.size
+    x = np.zeros((n, 22))
+    x[:, 6] = 1.0  # level body, north-aligned: the accelerometer reads a - g
+    acc_n = 3.0 * np.tanh((t - 6.0) / 0.3)  # a smooth surge along north [m/s^2]
+    u = np.zeros((n, 6))
+    u[:, 3] = acc_n
+    u[:, 5] = -9.81
+    v = np.concatenate([[0.0], np.cumsum(0.5 * (acc_n[1:] + acc_n[:-1]) * np.diff(t))])
+    vel = np.full((n, 3), np.nan)
+    g = np.arange(0, n, 10)
+    lag = 0.05
+    vel[g, 0] = np.interp(t[g] - lag, t, v) + np.random.default_rng(1).normal(0.0, 0.02, g.size)
+    vel[g, 1:] = 0.0
+    tau, std = gnss_latency(t, u, x, vel, 9.81, (2.0, 10.0), with_std=True)
+    assert abs(tau - lag) < max(3 * std, 0.002) and 0 < std < 0.01
+    assert gnss_latency(t, u, x, vel, 9.81, (2.0, 2.5), with_std=True) == (None, float("inf"))
