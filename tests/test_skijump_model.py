@@ -134,8 +134,9 @@ def test_config_defaults_are_tables_3_to_5_and_toml_overrides(tmp_path):
     c = SmootherConfig()
     assert c.p0_pos == (5.0, 5.0, 15.0) and c.p0_quat == 0.1 and c.p0_bias_gyr == 0.0873
     assert (c.q_gyr, c.q_acc) == (0.0175, 0.1)
-    assert c.r_gnss_pos == (3.0, 3.0, 5.0) and c.r_gnss_vel == (0.1, 0.1, 0.3) and c.r_mag == 5.0
-    assert (c.r_c_q, c.r_c_v_ir, c.r_c_h_ir, c.r_c_v_la) == (0.01, 0.1, 0.1, 0.1)
+    # Table 5 but the GNSS position and the hill constraints (issue 39: correlated GNSS errors; bench)
+    assert c.r_gnss_pos == (5.0, 5.0, 8.0) and c.r_gnss_vel == (0.1, 0.1, 0.3) and c.r_mag == 5.0
+    assert (c.r_c_q, c.r_c_v_ir, c.r_c_h_ir, c.r_c_v_la) == (0.01, 0.05, 0.05, 0.05)
     f = tmp_path / "c.toml"
     f.write_text("q_acc = 0.2\nr_gnss_pos = [1, 1, 2]\nhill_constraints = false\n")
     c2 = load_config(f)

@@ -34,7 +34,8 @@ athlete stands still (:func:`sportfusion.skijump.smoother_inputs.still_steps`: s
 standing after the stop), so that the rests do not drift between GNSS fixes; and magnetometer samples whose
 innovations show a disturbance that keeps the field's strength are skipped and the session smoothed again.
 
-``P0``, ``Q``, ``R`` are Tables 3-5 as 1-sigma values in :class:`SmootherConfig`, all overridable from a TOML
+``P0``, ``Q``, ``R`` are Tables 3-5 as 1-sigma values in :class:`SmootherConfig` (the GNSS position 5/5/8 m and the
+hill constraints 0.05 m instead: issue 39's benchmark on independent physics), all overridable from a TOML
 file (:func:`load_config`).  The reference field is the hill file's, else the World Magnetic Model at the
 take-off edge and the session's date.
 """

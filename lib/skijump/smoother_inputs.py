@@ -56,7 +56,8 @@ CONSTRAINT_COLUMNS = ("c_q", "c_v_ir", "c_h_ir", "c_v_la")
 
 @dataclass
 class SmootherConfig:
-    """Tuning of the ski-jump smoother; defaults are the paper's Tables 3-5 as 1-sigma values.
+    """Tuning of the ski-jump smoother; defaults are the paper's Tables 3-5 as 1-sigma values, except the GNSS
+    position and the hill constraints (issue 39, below).
 
     Units: positions [m], velocities [m/s], rates [rad/s], specific force
     [m/s^2], magnetic field [uT], times [s], quaternion and scale errors [1].
@@ -73,14 +74,18 @@ class SmootherConfig:
     # Table 4: per-sample input noise 1-sigma
     q_gyr: float = 0.0175
     q_acc: float = 0.1
-    # Table 5: measurement and constraint 1-sigma
-    r_gnss_pos: tuple[float, float, float] = (3.0, 3.0, 5.0)
+    # Table 5: measurement and constraint 1-sigma.  GNSS position 5/5/8 m and hill constraints 0.05 m instead of
+    # 3/3/5 m and 0.1 m (issue 39): a receiver's error is mostly slow drift, not white noise, so each fix tells
+    # less than Table 5 says, and the profile more.  Tuning variants of the independent simulator (seeds
+    # 6000-6007): 3-D 0.205 -> 0.188 m, jump length 0.202 -> 0.199 m; the paper's own noise (8 jumps): 3-D 0.089 ->
+    # 0.088 m, jump length 0.050 -> 0.034 m
+    r_gnss_pos: tuple[float, float, float] = (5.0, 5.0, 8.0)
     r_gnss_vel: tuple[float, float, float] = (0.1, 0.1, 0.3)
     r_mag: float = 5.0
     r_c_q: float = 0.01
-    r_c_v_ir: float = 0.1
-    r_c_h_ir: float = 0.1
-    r_c_v_la: float = 0.1
+    r_c_v_ir: float = 0.05
+    r_c_h_ir: float = 0.05
+    r_c_v_la: float = 0.05
     r_zupt: float = 0.05  # zero-velocity update while still [m/s], per IMU step
     # switches
     hill_constraints: bool = True
