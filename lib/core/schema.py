@@ -229,10 +229,25 @@ REQUIRED: dict[str, tuple[str, ...]] = {
 KINDS = tuple(REQUIRED)
 
 
+#: Several IMUs on one athlete: the columns of the sensor on a body segment are ``<segment>__<column>``.
+SEGMENT_SEPARATOR = "__"
+
+
+def sensor_column(name: str) -> str:
+    """The per-sensor column a (possibly segment-prefixed) name stands for: ``femur_r__acc_x`` -> ``acc_x``."""
+    seg, sep, base = name.partition(SEGMENT_SEPARATOR)
+    return base if sep and seg and base else name
+
+
 def lookup(name: str) -> Column | None:
     """Return the registered column for ``name``, resolving ``std_``/``true_`` prefixes."""
     if name in COLUMNS:
         return COLUMNS[name]
+    seg, sep, base_name = name.partition(SEGMENT_SEPARATOR)
+    if sep and seg and base_name:  # a sensor on a body segment: femur_r__acc_x (docs/table-contract.md)
+        base = lookup(base_name)
+        if base is not None:
+            return Column(name, base.type, base.unit, f"{seg} sensor: {base.meaning}")
     for prefix in ("true_", "std_"):
         if name.startswith(prefix):
             base = lookup(name[len(prefix) :])

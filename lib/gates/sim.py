@@ -95,6 +95,11 @@ class GatesConfig:
     gyr_vibration: float = 0.03  # [rad/s] per sample while skiing
     mag_bias: float = 0.3  # [uT] 1-sigma per axis (residual hard iron)
     mag_noise: float = 0.3  # [uT] per sample
+    # a full-body skier with seven IMUs (sportfusion.gates.sim_skier; simulate gates --body)
+    body: bool = False
+    height: float = 1.80  # athlete's height [m]
+    body_mass: float = 78.0  # athlete's mass without equipment [kg]
+    max_misalignment: float = 30.0  # sensor strap rotation, at most [deg]
 
     def __post_init__(self) -> None:
         if self.downhill:
@@ -372,6 +377,11 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     lat0, lon0, h0 = cfg.site
     g = normal_gravity(lat0, h0)
     tru = _truth(cfg, rng, g)
+    body = None
+    if cfg.body:  # the skier's posture and seven sensors (sportfusion.gates.sim_skier), calibration first
+        from sportfusion.gates.sim_skier import attach_body
+
+        tru, body = attach_body(tru, cfg, FINE_DT)
     c, ter = tru["course"], tru["terrain"]
     tf = tru["t"]
     gx, gy = c["gx"], c["gy"]
@@ -444,7 +454,13 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
         },
     )
     magn = Stream("magnetometer", tm, {"mag_x": mag[:, 0], "mag_y": mag[:, 1], "mag_z": mag[:, 2]})
-    session, _ = merge_streams([imu, magn])
+    streams = [imu, magn]
+    if body is not None:
+        from sportfusion.gates.sim_skier import body_streams
+
+        body["skiing_at"] = lambda times: at(tru["skiing"], times) > 0.5
+        streams += body_streams(body, ti, cfg, rng, g, body_rates)
+    session, _ = merge_streams(streams)
     frame = {
         "name": "course",
         "origin": [float(lat0), float(lon0), float(h0)],
@@ -480,6 +496,10 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     cols["true_gate"] = pa.array(gid, pa.int32())
     cols["true_gate_distance"] = pa.array(gdist, pa.float64())
     cols["true_turn"] = pa.array(gturn, pa.string())
+    if body is not None:
+        from sportfusion.gates.sim_skier import body_truth_columns
+
+        cols.update(body_truth_columns(body, ts))
     truth = pa.table(cols)
     truth_meta = sfmeta.new_meta("truth", cfg.date)
     truth_meta["frame"] = dict(frame)
