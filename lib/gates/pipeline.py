@@ -42,6 +42,18 @@ from sportfusion.gates.anchors import (
     sacrum_height,
     snow_normals,
 )
+from sportfusion.gates.com import (
+    SIGMA_REL_COM,
+    SIGMA_REL_VCOM,
+    Body,
+    absolute_com,
+    ankle_switch_signal,
+    has_body,
+    read_body,
+    snow_planes,
+    turn_sides,
+    vertical_heights,
+)
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
 from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
 
@@ -106,10 +118,40 @@ class GateAnchorResult:
     offset: np.ndarray
     turns: list[dict[str, Any]]
     passes: dict[str, Any]
+    com: np.ndarray | None = None  # absolute CoM (N, 3) [m], with a body
+    vcom: np.ndarray | None = None  # its velocity (N, 3) [m/s]
 
 
 def _interp(tg: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(tq, tg, x[:, j]) for j in range(x.shape[1])], axis=-1)
+
+
+def _estimate_anchors(
+    tg: np.ndarray,
+    track: np.ndarray,
+    vel: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    body: Body | None,
+) -> np.ndarray:
+    """Magnet positions estimated from the track at the crossings (eqs 2-6): the snow plane from the ski
+    contact points with a body (:mod:`sportfusion.gates.com`), else from ``normal`` / the sacrum height."""
+    pc = _interp(tg, track, cross["t"])
+    vc = _interp(tg, vel, cross["t"])
+    if body is None:
+        return relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial)
+    n, pts = snow_planes(tg, track, body, cross["t"])
+    if p.projection == "normal":
+        ok = np.isfinite(pts).all(axis=1)
+        out = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], None, p.burial)
+        if ok.any():
+            out[ok] = relative_anchors(
+                pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], cross["height"][ok], n[ok], p.burial, pts[ok]
+            )
+        return out
+    h = vertical_heights(pc, n, pts, cross["height"])
+    return relative_anchors(pc, vc, cross["distance"], cross["side"], h, None, p.burial)
 
 
 def _anchor_updates(
@@ -123,13 +165,14 @@ def _anchor_updates(
     offset: np.ndarray,
     sigma: float,
     p: GateAnchorParams,
+    body: Body | None = None,
 ) -> tuple[list[Anchor], np.ndarray]:
     """Anchor updates in the inertial frame: surveyed magnet (through alpha, offset) minus the relative offset."""
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
     normal_s, _ = snow_normals(survey, ids)
     normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
-    est = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal_j, p.burial)
+    est = _estimate_anchors(tg, track, vel, cross, normal_j, p, body)
     rel = est - pc
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
     out = []
@@ -166,11 +209,15 @@ def _spot_anchors(
 
 
 def _detected_anchors(
-    tg: np.ndarray, track: np.ndarray, vel: np.ndarray, cross: dict[str, np.ndarray], normal: np.ndarray | None, p
+    tg: np.ndarray,
+    track: np.ndarray,
+    vel: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    body: Body | None = None,
 ) -> np.ndarray:
-    pc = _interp(tg, track, cross["t"])
-    vc = _interp(tg, vel, cross["t"])
-    return relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial)
+    return _estimate_anchors(tg, track, vel, cross, normal, p, body)
 
 
 def turn_figures(
@@ -182,16 +229,22 @@ def turn_figures(
     ids: np.ndarray,
     survey: np.ndarray,
     gate_numbers: np.ndarray,
+    signal: np.ndarray | None = None,
 ) -> list[dict[str, Any]]:
     """Per-turn figures (paper Table 2) for every matched crossing with a crossing before and after it.
 
-    A turn runs from the switch before its gate to the switch after it; a switch is the sign change of the
-    course rate ``(vx ay - vy ax) / (vx^2 + vy^2)`` between two consecutive crossings nearest the middle of
-    the interval.  Returns dicts with ``gate``, ``t_in``, ``t_out`` [s], ``v_in``, ``v_out`` [m/s] (speed
+    A turn runs from the switch before its gate to the switch after it; a switch is the sign change of
+    ``signal`` (default: the course rate ``(vx ay - vy ax) / (vx^2 + vy^2)``; with a body the ankle criterion
+    of :func:`sportfusion.gates.com.ankle_switch_signal`) between two consecutive crossings nearest the
+    middle of the interval.  Returns dicts with ``gate``, ``t_in``, ``t_out`` [s], ``v_in``, ``v_out`` [m/s] (speed
     at the switches), ``d_in``, ``d_out`` (3-D distance from the sacrum at the switches to the gate's
     magnet), ``d_cross`` (at the crossing) and ``length`` (3-D path length from switch to switch) [m].
     """
-    rate = (vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]) / np.maximum(vel[:, 0] ** 2 + vel[:, 1] ** 2, 1.0)
+    rate = (
+        signal
+        if signal is not None
+        else (vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]) / np.maximum(vel[:, 0] ** 2 + vel[:, 1] ** 2, 1.0)
+    )
     order = np.argsort(cross_t)
     ct = cross_t[order]
 
@@ -254,6 +307,8 @@ def gate_anchor_arrays(
     q_bj: np.ndarray | None = None,
     params: GateAnchorParams | None = None,
     spots: dict[str, np.ndarray] | None = None,
+    body: Body | None = None,
+    still: list[tuple[float, float]] | None = None,
 ) -> GateAnchorResult:
     """The gate-anchor pipeline on arrays (see the module text).
 
@@ -279,6 +334,12 @@ def gate_anchor_arrays(
     spots : dict, optional
         Surveyed static spots in the output frame [m]: ``{"start": (3,), "finish": (3,)}``, the snow points
         where the athlete stands for the static postures; each anchors the sacrum during its posture (EKS 2).
+    body : Body, optional
+        The body model's columns (:mod:`sportfusion.gates.com`): relative anchors from the ski contact
+        points, turn switches from the ankles, the absolute CoM; ``q_bj`` is then the body model's pelvis
+        sensor attitude.
+    still : list of (float, float), optional
+        Further still periods [s] (zero-velocity updates), e.g. the body model's.
 
     Returns
     -------
@@ -308,12 +369,12 @@ def gate_anchor_arrays(
         "finish": (float(t[static.finish[0]]), float(t[static.finish[1] - 1])),
     }
     zupt = np.zeros(tg.size, bool)
-    for a, b in windows.values():
+    for a, b in list(windows.values()) + list(still or []):
         zupt |= (tg >= a) & (tg <= b)
     # EKS 1: inertial only
     r1 = run_eks(tg, ag, g, zupt, None, p.eks)
     p1, v1 = r1.x_smooth[:, 0:3], r1.x_smooth[:, 3:6]
-    det1 = _detected_anchors(tg, p1, v1, cross, None, p)
+    det1 = _detected_anchors(tg, p1, v1, cross, None, p, body)
     m1 = match_anchors(cross["t"], det1, cross["side"], survey, survey_side, p.match)
     if (m1.ids >= 0).sum() < 2:
         raise InputError("fewer than 2 crossings could be matched to the survey; is it the right course?")
@@ -326,13 +387,13 @@ def gate_anchor_arrays(
     track, vel = p1, v1
     normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
-        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p)
+        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, body)
         an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
         r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
         normal_s, _ = snow_normals(survey, ids)
         det2 = _detected_anchors(
-            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p
+            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, body
         )
         m2 = match_anchors(
             cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, survey_side, p.match, alpha=0.0
@@ -344,7 +405,7 @@ def gate_anchor_arrays(
             break
     track2, v2 = track, vel
     # EKS 2, second iteration (anchor sigma 0.1 m)
-    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p)
+    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, body)
     an2 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
     r3 = run_eks(tg, ag, g, zupt, an2, p.eks)
     xs, Ps = r3.x_smooth, r3.P_smooth
@@ -357,7 +418,13 @@ def gate_anchor_arrays(
     pos = rotate_z(pos_j, alpha) + offset
     vel = rotate_z(xs[:, 3:6], alpha)
     accs = rotate_z(xs[:, 6:9], alpha)
-    turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
+    com = vcom = None
+    if body is not None:  # the paper's output: the CoM, and the turn figures from it
+        com, vcom = absolute_com(tg, pos, alpha, body)
+        sig = ankle_switch_signal(tg, body)
+        turns = turn_figures(tg, com, vcom, accs, cross["t"], ids, survey, gate_numbers, signal=sig)
+    else:
+        turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
     passes = {
         "rate_hz": p.rate,
         "matched_first": int((m1.ids >= 0).sum()),
@@ -384,6 +451,8 @@ def gate_anchor_arrays(
         offset=offset,
         turns=turns,
         passes=passes,
+        com=com,
+        vcom=vcom,
     )
 
 
@@ -469,7 +538,16 @@ def gate_anchor_table(
     if imu.sum() < 100:
         raise InputError(f"{int(imu.sum())} rows with acc_* and gyr_*; expected an IMU recording")
     q = None
-    if all(f"q{i}" in table.column_names for i in range(4)):
+    body = None
+    still: list[tuple[float, float]] = []
+    if has_body(table.column_names):
+        body = read_body(table, meta, np.flatnonzero(imu))
+        q = body.q_sensor
+        if not np.isfinite(q).all():
+            raise InputError("the body model's pelvis orientation has gaps on the IMU rows; rerun body-model")
+        still = [(float(a), float(b)) for a, b in (meta.get("body_model") or {}).get("still_periods_s", [])]
+        cr["turn"] = turn_sides(body, cr["t"])
+    elif all(f"q{i}" in table.column_names for i in range(4)):
         qn = schema.float_columns(table, [f"q{i}" for i in range(4)])[imu]
         if np.isfinite(qn).all():
             az = np.deg2rad(frame.azimuth_deg if frame is not None else 0.0)
@@ -481,7 +559,7 @@ def gate_anchor_table(
 
     try:
         res = gate_anchor_arrays(
-            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots
+            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, body, still
         )
     except CovarianceError as exc:
         raise InputError(f"the smoother failed: {exc}") from exc
@@ -491,6 +569,12 @@ def gate_anchor_table(
         cols[f"v{a}"] = np.interp(t, res.t, res.vel[:, i])
         cols[f"std_{a}"] = np.interp(t, res.t, res.std_pos[:, i])
         cols[f"std_v{a}"] = np.interp(t, res.t, res.std_vel[:, i])
+    if res.com is not None:
+        for i, a in enumerate("xyz"):
+            cols[f"com_{a}"] = np.interp(t, res.t, res.com[:, i])
+            cols[f"com_v{a}"] = np.interp(t, res.t, res.vcom[:, i])
+            cols[f"std_com_{a}"] = np.sqrt(cols[f"std_{a}"] ** 2 + SIGMA_REL_COM**2)
+            cols[f"std_com_v{a}"] = np.sqrt(cols[f"std_v{a}"] ** 2 + SIGMA_REL_VCOM**2)
     n = t.size
     gate: list[int | None] = [None] * n
     used: list[bool | None] = [None] * n
@@ -524,7 +608,15 @@ def gate_anchor_table(
         meta["frame"] = frame.to_meta()
     meta["gate_anchor"] = {
         "method": "gates paper Figure 2 (sacrum): strap-down, EKS 1, relative anchors, matching, EKS 2 (1 m, 0.1 m)",
-        "attitude": "session q0..q3" if q is not None else "strap-down with drift correction",
+        "attitude": "body model (pelvis)"
+        if body is not None
+        else "session q0..q3"
+        if q is not None
+        else "strap-down with drift correction",
+        "com": "LJC track + body model's relative CoM, three-point speed, Butterworth 2nd order 5 Hz zero phase; "
+        "turn figures from the CoM, switches from the ankles"
+        if body is not None
+        else None,
         "anchors_every": p.anchors_every,
         "static_height_m": p.static_height if spots else None,
         **res.passes,

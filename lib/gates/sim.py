@@ -127,6 +127,7 @@ class GatesSim:
     fine: dict = field(repr=False)
     magnets: np.ndarray = field(repr=False)  # (N, 3) true magnet positions, course frame [m]
     crossings: dict = field(repr=False)  # truth per gate: t, distance, turn, index on the fine grid
+    body: dict | None = field(default=None, repr=False)  # the skier (--body): sportfusion.gates.sim_skier
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -532,4 +533,4 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
         "what": "buried magnet positions" + (", static start and finish spots" if cfg.survey_spots else ""),
         "coordinates": "WGS84" if survey_wgs84 else "course frame",
     }
-    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, magnets, cross)
+    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, magnets, cross, body)
