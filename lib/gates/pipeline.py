@@ -279,6 +279,7 @@ def turn_figures(
         out.append(
             {
                 "gate": int(gate_numbers[ids[m]]),
+                "gate_xyz": [float(v) for v in g],
                 "t_cross": float(ct[j]),
                 "t_in": t_in,
                 "t_out": t_out,
