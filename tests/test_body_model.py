@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import run_cli
+
 from sportfusion.body.anthropometry import body_params
 from sportfusion.core import io as sfio
 from sportfusion.core import schema

@@ -11,12 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ROOT, run_cli
 
 from sportfusion.core import io as sfio
 from sportfusion.core import schema
 from sportfusion.ingest import Options, read_recording
 from sportfusion.ingest.xsensdir import read_mapping
-from conftest import ROOT, run_cli
 
 FIX = ROOT / "fixtures" / "opensense"
 SEGS = {"torso", "pelvis", "tibia_r", "femur_r", "tibia_l", "femur_l", "calcn_r", "calcn_l"}
