@@ -16,11 +16,12 @@
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
 columns, the matched gate per crossing and the per-turn figures of the paper (Table 2): entrance and exit
 speed at the turn switches, distances from the switches and at the crossing to the gate, path length of
-the turn.  The paper adds a body model to get the CoM; with one sacrum sensor we output the sacrum
-(the paper's LJC, ``p_sacr = p_ljc``).
+the turn.  With one sacrum sensor we output the sacrum (the paper's LJC, ``p_sacr = p_ljc``); on a session
+with the columns of ``body-model`` also the paper's output, the absolute CoM, with the relative anchors from
+the ski contact points and the turn figures from the CoM (:mod:`sportfusion.gates.com`).
 
-Turn switches: the paper uses equal left/right ankle distances to the CoM (a full-body criterion); with the
-sacrum alone a switch is the sign change of the course rate (the turning of the horizontal velocity)
+Turn switches: the paper uses equal left/right ankle distances to the CoM (a full-body criterion, used with a
+body); with the sacrum alone a switch is the sign change of the course rate (the turning of the horizontal velocity)
 between two consecutive crossings, the one nearest the middle of the interval.
 """
 
