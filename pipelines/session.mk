@@ -8,6 +8,7 @@
 #   HILL    = shipped hill name or TOML file        (skijump)
 #   ORIGIN  = LAT,LON,H   AZIMUTH = DEG             (skirace: the local course frame)
 #   GATES   = gate survey (Parquet, kind gates)      (gates)
+#   BODY    = body-model options, e.g. --height 1.8 --mass 78 (gates with several IMUs: adds body-model)
 #   HOLDS   = hold map (Parquet, kind holds)         (climbing)
 #   TRUTH   = truth table, when the session was simulated (adds evaluation.txt)
 #   VIDEO   = landing video, MARKERS = its marker table (skijump: the video reference, Table 7)
@@ -109,7 +110,7 @@ evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
 report: $(O)/report.html
 
 $(O)/crossings.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
-	$(INGEST) | $(BIN)detect-events $(Q) --kind gates -o $@
+	$(INGEST) $(if $(BODY),| $(BIN)body-model $(Q) $(BODY)) | $(BIN)detect-events $(Q) --kind gates -o $@
 $(O)/anchored.parquet: $(O)/crossings.parquet $(S)/$(GATES)
 	$(BIN)gate-anchor $(Q) $< --gates $(S)/$(GATES) -o $@
 $(O)/evaluation.txt: $(O)/anchored.parquet $(TRUTHFILE)
