@@ -16,7 +16,7 @@ from sportfusion.core import schema
 def test_de_leva_segments_scale_with_height_and_mass() -> None:
     b = body_params(1.741, 73.0, "male", equipment=0.0)
     assert b.total_mass == pytest.approx(73.0, rel=1e-9)  # the seven segments carry all of de Leva's mass
-    assert b.lengths["thigh"] == pytest.approx(0.4222, abs=1e-4)  # Table 1, HJC-KJC 422.2 mm
+    assert b.lengths["thigh"] == pytest.approx(0.4222, abs=1e-4)  # Table 4, HJC-KJC 422.2 mm
     assert b.lengths["shank"] == pytest.approx(0.4403, abs=1e-4)
     assert b.com["femur_r"][0] == pytest.approx(0.1416 * 73.0)  # Table 4, 14.16 %
     assert b.com["femur_r"][1][2] == pytest.approx(0.4095 * 0.4222, abs=1e-4)
@@ -24,6 +24,13 @@ def test_de_leva_segments_scale_with_height_and_mass() -> None:
     assert b2.total_mass == pytest.approx(85.0)
     f = body_params(1.735, 61.9, "female", equipment=0.0)
     assert f.total_mass == pytest.approx(61.9, rel=2e-4) and f.lengths["thigh"] == pytest.approx(0.3685, abs=1e-4)
+    assert f.lengths["shank"] == pytest.approx(0.4386, abs=1e-4)  # Table 4, KJC-AJC 438.6 mm
+    # Table 4's segments (arms and legs twice) make up the whole body: 100 % within its rounding
+    from sportfusion.body.anthropometry import MASS_PCT
+
+    for sex, m in MASS_PCT.items():
+        limbs = ("upper_arm", "forearm", "hand", "thigh", "shank", "foot")
+        assert sum(m.values()) + sum(m[k] for k in limbs) == pytest.approx(100.0, abs=0.05), sex
 
 
 @pytest.fixture(scope="module")

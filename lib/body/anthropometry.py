@@ -1,8 +1,13 @@
 """Segment lengths, masses and centre-of-mass locations: de Leva (1996), scaled by height and mass.
 
 de Leva P. (1996) Adjustments to Zatsiorsky-Seluyanov's segment inertia parameters. J. Biomech. 29:1223-1230,
-Table 1 (segment lengths of the reference subjects, stature 1741 mm male / 1735 mm female) and Table 4 (mass
-[% of body mass] and longitudinal CoM location [% of the segment length from the proximal end point]).
+Table 4: segment lengths of the reference subjects (stature 1741 mm male / 1735 mm female), mass [% of body
+mass] and longitudinal CoM location [% of the segment length from the first end point]; the shank is Table 4's
+alternative definition from the knee to the ankle joint centre (KJC-AJC: 440.3 / 438.6 mm, CoM 43.95 / 43.52 %),
+the trunk its three-part one (upper, middle, lower).  Every number below was checked against two public
+transcriptions of Table 4: R. Gurchiek's ``deleva.m`` (github.com/gurchiek/nms-dyn,
+general_library/biomx/MusculoskeletalModel/SegmentInertia) and the ``DeLevaTable`` of pyomeca's biorbd
+model-creation examples (masses and CoMs of the main segments).
 
 The seven sensed segments of the gates paper (pelvis, torso, head, both thighs and shanks) and the parts
 without a sensor, carried by one of them:
@@ -35,15 +40,15 @@ import numpy as np
 
 from sportfusion.core.errors import InputError
 
-#: Reference statures of de Leva's Table 1 [mm].
+#: Reference statures of de Leva's Table 4 [mm].
 STATURE_MM = {"male": 1741.0, "female": 1735.0}
-#: Segment lengths of de Leva's Table 1 [mm]: head VERT-MIDG, upper trunk SUPR-XYPH, middle trunk XYPH-OMPH,
+#: Segment lengths of de Leva's Table 4 [mm]: head VERT-MIDG, upper trunk SUPR-XYPH, middle trunk XYPH-OMPH,
 #: lower trunk OMPH-MIDH, thigh HJC-KJC, shank KJC-AJC, foot HEEL-TTIP.
 LENGTH_MM = {
     "male": {"head": 203.3, "upper_trunk": 170.7, "mid_trunk": 215.5, "lower_trunk": 145.7, "thigh": 422.2,
              "shank": 440.3, "foot": 258.1},
     "female": {"head": 200.2, "upper_trunk": 142.5, "mid_trunk": 205.3, "lower_trunk": 181.5, "thigh": 368.5,
-               "shank": 437.0, "foot": 228.3},
+               "shank": 438.6, "foot": 228.3},
 }  # fmt: skip
 #: Segment masses of de Leva's Table 4 [% of body mass].
 MASS_PCT = {
