@@ -105,7 +105,7 @@ endif
 # --------------------------------------------------------------------------- ski racing, magnet gates
 ifeq ($(SPORT),gates)
 results: $(O)/anchored.parquet
-plots: $(O)/plots/course.png $(O)/plots/series.png
+plots: $(O)/plots/course.png $(O)/plots/series.png $(if $(BODY),$(O)/plots/body.png)
 evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
 report: $(O)/report.html
 
@@ -121,6 +121,8 @@ $(O)/report.html: $(O)/anchored.parquet $(S)/$(GATES) $(if $(TRUTH),$(O)/evaluat
 	$(BIN)report $(Q) $< --gates $(S)/$(GATES) $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/course.png: $(O)/anchored.parquet $(S)/$(GATES)
 	$(BIN)plot gates $(Q) $< --gates $(S)/$(GATES) -o $@
+$(O)/plots/body.png: $(O)/anchored.parquet $(S)/$(GATES)
+	$(BIN)plot body $(Q) $< --gates $(S)/$(GATES) -o $@
 $(O)/plots/series.png: $(O)/anchored.parquet
 	$(BIN)plot series $(Q) $< -o $@
 endif
