@@ -73,6 +73,16 @@ from sportfusion.tools._options import parse_floats, parse_pairs
     help="Window of the knee hinge drift correction (0: off) [s].",
 )
 @click.option(
+    "--pelvis-lever",
+    default="auto",
+    show_default=True,
+    metavar="auto|X,Y,Z",
+    help="The lumbar joint centre relative to the pelvis (sacrum) sensor in the pelvis frame (x forward, y right, "
+    "z down) [m]: auto estimates it from the hip joint centres (Seel et al. 2012: the hips move with the pelvis and "
+    "the thighs); 0,0,0 takes the sensor at the LJC as the gates paper does; gate-anchor adds it to the sensor's "
+    "track.",
+)
+@click.option(
     "--opensense",
     "opensense_path",
     type=click.Path(dir_okay=False, writable=True),
@@ -89,6 +99,7 @@ def main(
     calibration: str | None,
     lengths: tuple[str, ...],
     knee_window: float,
+    pelvis_lever: str,
     opensense_path: str | None,
 ) -> None:
     """Body model from several IMUs on one athlete (gates paper "Body model"; Fasel
@@ -110,6 +121,9 @@ def main(
     of the athlete with the equipment (default 12 kg; --equipment-mass 0 for the
     body alone).
 
+    The pelvis sensor's lever arm to the lumbar joint centre (LJC) is estimated
+    from the hip joint centres (--pelvis-lever) and goes to the metadata.
+
     Writes, in the frame J (x forward, y right of the athlete in the calibration
     posture, z down) relative to the lumbar joint centre: <segment>__q0..q3,
     hip/knee/ankle_r/l, sternum, head and ski_r/l (contact points) as
@@ -127,6 +141,11 @@ def main(
             measured[k] = float(v)
         except ValueError as exc:
             raise click.BadParameter(f"{k}={v}: not a length in metres", param_hint="--length") from exc
+    lever = None
+    if pelvis_lever.strip().lower() != "auto":
+        lever = tuple(parse_floats(pelvis_lever, 3, "--pelvis-lever"))
+        if max(abs(v) for v in lever) > 0.5:
+            raise click.BadParameter(f"{pelvis_lever!r}: more than 0.5 m from the sensor", param_hint="--pelvis-lever")
     params = BodyModelParams(
         height=height,
         mass=mass,
@@ -136,6 +155,7 @@ def main(
         calibration=window,
         lengths=measured,
         hinge_window=knee_window or None,
+        pelvis_lever=lever,  # type: ignore[arg-type]
     )
     out, meta, msg, res, rows = body_model_table(table, meta, params)
     sto = None

@@ -16,6 +16,9 @@ to the lumbar joint centre (LJC):
   (ski_*: the ski-snow contact points, 0.15 m distal of the ankles along the shanks);
 * ``com_rel_x/y/z`` [m]: the whole-body centre of mass (boots and skis included);
 * ``hip_r_flexion hip_l_flexion knee_r_flexion knee_l_flexion`` [rad].
+
+The metadata's ``body_model.pelvis_lever_m`` is the LJC relative to the pelvis sensor in the pelvis frame
+[m] (:func:`sportfusion.body.joints.pelvis_lever`), which ``gate-anchor`` adds to the sensor's track.
 """
 
 from __future__ import annotations
@@ -48,6 +51,9 @@ class BodyModelParams:
     calibration: tuple[float, float] | None = None  # [s] on the session clock
     lengths: dict[str, float] = field(default_factory=dict)  # measured lengths [m]
     hinge_window: float | None = 4.0  # knee drift correction window [s]; None: off
+    # the pelvis sensor's lever arm to the LJC in the pelvis frame [m]: None estimated from the hips
+    # (sportfusion.body.joints), zeros: the sensor at the LJC (the gates paper's assumption), or measured
+    pelvis_lever: tuple[float, float, float] | None = None
 
 
 def column(segment: str, name: str) -> str:
@@ -84,6 +90,19 @@ def body_model_arrays(
     if not any(a <= start < b for a, b in statics):
         statics = sorted(statics + [cal.static])
     rot, bias = segment_orientations(t, acc, gyr, cal.alignment, start, statics, p.hinge_window)
+    if p.pelvis_lever is None:
+        from sportfusion.body.joints import pelvis_lever
+
+        pl = pelvis_lever(
+            t, acc, gyr, cal.alignment, {s: body.joint[f"femur_{s}"] for s in "rl"}, body.lengths["thigh"]
+        )
+        lever, lever_how = pl.lever, (
+            f"estimated from the hip joint centres (Seel et al. 2012; residual {pl.rms:.2f} m/s^2)"
+            if not pl.note
+            else f"not estimated ({pl.note}): the sensor taken at the LJC"
+        )
+    else:
+        lever, lever_how = np.asarray(p.pelvis_lever, float), "given"
     pts = body_points(rot, body)
     com = centre_of_mass(rot, body)
     jr = joint_rotations(rot)
@@ -104,6 +123,8 @@ def body_model_arrays(
         "segment_mass_kg": {k: round(m, 3) for k, (m, _) in body.com.items()},
         "lengths_m": {k: round(v, 4) for k, v in body.lengths.items()},
         "total_mass_kg": round(body.total_mass, 3),
+        "pelvis_lever_m": np.round(lever, 4).tolist(),
+        "pelvis_lever": lever_how,
     }
     return BodyResult(rot, pts, com, flex, info)
 

@@ -49,11 +49,11 @@ from sportfusion.gates.com import (
     Body,
     absolute_com,
     ankle_switch_signal,
+    body_anchors,
     has_body,
     read_body,
     snow_planes,
     turn_sides,
-    vertical_heights,
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
 from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
@@ -136,23 +136,38 @@ def _estimate_anchors(
     p: GateAnchorParams,
     body: Body | None,
 ) -> np.ndarray:
-    """Magnet positions estimated from the track at the crossings (eqs 2-6): the snow plane from the ski
-    contact points with a body (:mod:`sportfusion.gates.com`), else from ``normal`` / the sacrum height."""
+    """Magnet positions estimated from the track at the crossings (eqs 2-6).  With a body
+    (:mod:`sportfusion.gates.com`) the snow plane passes through the ski contact points along the ski line
+    (``normal`` replaces its normal where given and finite); without one, from ``normal`` (None: vertical)
+    and the sacrum height."""
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
     if body is None:
         return relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial)
     n, pts = snow_planes(tg, track, body, cross["t"])
-    if p.projection == "normal":
-        ok = np.isfinite(pts).all(axis=1)
-        out = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], None, p.burial)
-        if ok.any():
-            out[ok] = relative_anchors(
-                pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], cross["height"][ok], n[ok], p.burial, pts[ok]
-            )
-        return out
-    h = vertical_heights(pc, n, pts, cross["height"])
-    return relative_anchors(pc, vc, cross["distance"], cross["side"], h, None, p.burial)
+    if normal is not None:
+        have = np.isfinite(normal).all(axis=1)
+        n[have] = normal[have]
+    out = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], None, p.burial)
+    ok = np.isfinite(pts).all(axis=1)
+    if ok.any() and p.projection == "normal":
+        out[ok] = relative_anchors(
+            pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], cross["height"][ok], n[ok], p.burial, pts[ok]
+        )
+    elif ok.any():
+        out[ok] = body_anchors(pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], n[ok], pts[ok], p.burial)
+    return out
+
+
+def _survey_normals(survey: np.ndarray, ids: np.ndarray, alpha: float, p: GateAnchorParams) -> np.ndarray | None:
+    """Snow normals in the inertial frame from the surveyed magnets around each matched gate (the normal
+    projection without a body; None otherwise: vertical, or with a body the ski line).  A plane through
+    five magnets 100 m apart is 3-7 deg off the snow under the skier on a slope whose pitch varies
+    (measured on the simulator), too far off for the cross slope a body's anchors would need."""
+    if p.projection != "normal":
+        return None
+    normal_s, _ = snow_normals(survey, ids)
+    return rotate_z(normal_s, -alpha)
 
 
 def _anchor_updates(
@@ -171,9 +186,7 @@ def _anchor_updates(
     """Anchor updates in the inertial frame: surveyed magnet (through alpha, offset) minus the relative offset."""
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
-    normal_s, _ = snow_normals(survey, ids)
-    normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
-    est = _estimate_anchors(tg, track, vel, cross, normal_j, p, body)
+    est = _estimate_anchors(tg, track, vel, cross, _survey_normals(survey, ids, alpha, p), p, body)
     rel = est - pc
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
     out = []
@@ -387,16 +400,12 @@ def gate_anchor_arrays(
     # (at most 3 times; the paper runs it once).
     ids = m1.ids
     track, vel = p1, v1
-    normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
         an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, body)
         an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
         r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
-        normal_s, _ = snow_normals(survey, ids)
-        det2 = _detected_anchors(
-            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, body
-        )
+        det2 = _detected_anchors(tg, track, vel, cross, _survey_normals(survey, ids, alpha, p), p, body)
         m2 = match_anchors(
             cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, survey_side, p.match, alpha=0.0
         )
