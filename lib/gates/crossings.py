@@ -16,7 +16,7 @@
   passed at 0.2-1.2 m and 5-30 m/s gives a bump of 0.01-0.4 s; slow swings of
   a disturbed field are wider), at least ``min_separation`` seconds from a
   higher one; its height is refined with a
-  parabola through the logarithm of the excess (:func:`refine_peak`), which
+  parabola through the logarithm of the excess (:func:`peak_vertex`), which
   recovers most of what the 125 Hz sampling misses.
 * The distance to the magnet comes from the cube law calibrated for the magnet
   (:class:`MagnetCalibration`; eq 1 of the paper is garbled and replaced by the
@@ -46,7 +46,7 @@ from sportfusion.gates.magnet import (
     MagnetCalibration,
     default_calibration,
     fit_calibration,
-    refine_peak,
+    peak_vertex,
     self_calibrated_norm,
 )
 
@@ -99,6 +99,7 @@ class Crossing:
     distance: float
     turn: str
     gyr_z: float
+    t_peak: float = float("nan")  # the |B| peak between samples [s] (:func:`sportfusion.gates.magnet.peak_vertex`)
 
 
 @dataclass
@@ -225,8 +226,9 @@ def detect_gates(
     det.threshold = max(p.threshold, p.noise_k * det.noise)
     peaks, _ = find_peaks(e, height=det.threshold, distance=max(1, int(p.min_separation * rate)))
     peaks = peaks[_half_height_width(e, peaks) <= max(1.0, p.max_width * rate)]
+    dt = 1.0 / rate
     for k in peaks:
-        bp = refine_peak(b, int(k))
+        dk, bp = peak_vertex(b, int(k))
         w = np.abs(t_gyr - t_mag[k]) <= p.turn_window
         wz = float(np.mean(gyr_z[w])) if w.any() else float(np.interp(t_mag[k], t_gyr, gyr_z))
         det.crossings.append(
@@ -236,6 +238,7 @@ def detect_gates(
                 distance=float(cal.distance(bp)),
                 turn="R" if wz > 0 else "L",
                 gyr_z=wz,
+                t_peak=float(t_mag[k] + dk * dt),
             )
         )
     return det
@@ -292,7 +295,8 @@ def detect_gate_table(
 
 def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     """Columns ``event`` (``gate`` at each crossing's row, other events kept), ``gate_b_peak``,
-    ``gate_distance``, ``turn`` (null except at crossing rows)."""
+    ``gate_distance``, ``gate_t_peak`` (the peak's time between samples), ``turn`` (null except at crossing
+    rows)."""
     from sportfusion.core.events import set_events
 
     out = set_events(table, [("gate", c.t) for c in det.crossings], replace=GATE_EVENTS)
@@ -300,27 +304,33 @@ def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     n = t.size
     bp: list[float | None] = [None] * n
     dist: list[float | None] = [None] * n
+    tp: list[float | None] = [None] * n
     turn: list[str | None] = [None] * n
     for c in det.crossings:
         i = int(np.argmin(np.abs(t - c.t)))
         bp[i], turn[i] = c.b_peak, c.turn
         dist[i] = None if not np.isfinite(c.distance) else c.distance
+        tp[i] = float(c.t_peak) if np.isfinite(c.t_peak) else None
     return {
         "event": out.column("event").combine_chunks(),
         "gate_b_peak": pa.array(bp, pa.float64()),
         "gate_distance": pa.array(dist, pa.float64()),
+        "gate_t_peak": pa.array(tp, pa.float64()),
         "turn": pa.array(turn, pa.string()),
     }
 
 
 def read_crossings(table: pa.Table) -> dict[str, np.ndarray]:
-    """The crossings written by :func:`gate_columns`: ``t`` [s], ``distance`` [m], ``turn`` (+1 R, -1 L),
-    ``row`` (row index)."""
+    """The crossings written by :func:`gate_columns`: ``t`` [s] (the peak's time between samples where the
+    session has it, else the row's), ``distance`` [m], ``turn`` (+1 R, -1 L), ``row`` (row index)."""
     if "event" not in table.column_names:
         return {"t": np.zeros(0), "distance": np.zeros(0), "turn": np.zeros(0), "row": np.zeros(0, int)}
     ev = np.array(table.column("event").to_pylist(), dtype=object)
     rows = np.flatnonzero(ev == "gate")
     t = schema.floats(table, "t")[rows]
+    if "gate_t_peak" in table.column_names:
+        tp = schema.floats(table, "gate_t_peak")[rows]
+        t = np.where(np.isfinite(tp) & (np.abs(tp - t) < 0.1), tp, t)
     dist = (
         schema.floats(table, "gate_distance")[rows]
         if "gate_distance" in table.column_names
