@@ -96,10 +96,13 @@ def body_model_arrays(
         pl = pelvis_lever(
             t, acc, gyr, cal.alignment, {s: body.joint[f"femur_{s}"] for s in "rl"}, body.lengths["thigh"]
         )
-        lever, lever_how = pl.lever, (
-            f"estimated from the hip joint centres (Seel et al. 2012; residual {pl.rms:.2f} m/s^2)"
-            if not pl.note
-            else f"not estimated ({pl.note}): the sensor taken at the LJC"
+        lever, lever_how = (
+            pl.lever,
+            (
+                f"estimated from the hip joint centres (Seel et al. 2012; residual {pl.rms:.2f} m/s^2)"
+                if not pl.note
+                else f"not estimated ({pl.note}): the sensor taken at the LJC"
+            ),
         )
     else:
         lever, lever_how = np.asarray(p.pelvis_lever, float), "given"
