@@ -86,7 +86,7 @@ def one(job: tuple[int, tuple[str, ...]]) -> dict:
         t0 = time.perf_counter()
         est, _, _ = rts_smooth_table(sim.session, sim.session_meta, hill, cfg, takeoff=to, touchdown=td)
         out[f"{name}_time"] = time.perf_counter() - t0
-        err = errors(est, sim.truth, az)[2]
+        err = errors(est, sim.truth, az, velocity_frame="ned")[2]  # Table 6: v_O in NED
         out[name] = {k: _rms(v) * (180 / math.pi if k in ANG else 1.0) for k, v in err.items()}
         t = floats(est, "t")
         pos = np.stack([floats(est, c) for c in ("x", "y", "z")], -1)
@@ -97,7 +97,7 @@ def one(job: tuple[int, tuple[str, ...]]) -> dict:
     tab = sim.session
     for c in ("gnss_x", "gnss_y", "gnss_z"):
         tab = tab.append_column(c, pa.array(g[c]))
-    gerr = errors(tab, sim.truth, az, gnss=True)[2]
+    gerr = errors(tab, sim.truth, az, gnss=True, velocity_frame="ned")[2]
     out["gnss"] = {k: _rms(v) for k, v in gerr.items()}
     return out
 

@@ -74,7 +74,7 @@ def one(seed: int) -> dict:
     out: dict = {"seed": seed}
     for name, cfg in cfgs.items():
         est, meta, _ = rts_smooth_table(sim.session, sim.session_meta, hill, cfg, takeoff=to, touchdown=td)
-        e = errors(est, sim.truth, az)[2]
+        e = errors(est, sim.truth, az, velocity_frame="ned")[2]
         t = floats(est, "t")
         pos = np.stack([floats(est, c) for c in "xyz"], -1)
         vel = np.stack([floats(est, c) for c in ("vx", "vy", "vz")], -1)

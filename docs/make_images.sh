@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The figures shown in docs/plots.md, one of each kind, small (80 dpi), from the demo's outputs.
-#   make demo DEMO=demo-out && docs/make_images.sh demo-out
+#   make images        (= make demo, then docs/make_images.sh demo-out)
 set -euo pipefail
 DEMO=${1:-demo-out}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)

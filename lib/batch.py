@@ -4,14 +4,23 @@
 ``OUT/<name>/`` (with ``make -k -j N``: one bad session does not stop the others) and then
 ``python -m sportfusion.batch OUT`` to write ``OUT/summary.parquet`` (kind ``summary``), a CSV copy,
 a readable table listing each failed session with its error line, and ``OUT/index.html`` (the batch's
-page for people, linking each session's ``report.html``).
+page for people, linking each session's ``report.html``). A session is ok only when every file its
+target declares (``session.mk ... outputs``) exists and it left no ``error``.
+
+The same module serves ``make cluster-batch`` (``pipelines/Snakefile``): the resources of a session job,
+the scheduler's own error line of a job that SLURM refused or ended, and ``python -m sportfusion.batch
+check-profile PROFILE``, which checks a SLURM profile against the cluster before anything is submitted.
 """
 
 from __future__ import annotations
 
 import argparse
+import getpass
 import re
+import shutil
+import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +37,9 @@ __all__ = [
     "read_config",
     "session_inputs",
     "session_resources",
+    "declared_outputs",
+    "scheduler_error_line",
+    "check_slurm_profile",
     "session_row",
     "collect",
     "summary_table",
@@ -97,8 +109,9 @@ def session_resources(input_files: Any, attempt: int = 1) -> dict[str, int]:
 
     Sized by the session's length through the total size of its input files (``S`` MB): the whole
     per-session pipeline peaks below ~8 KB of memory per IMU step and a raw MB holds roughly 10-20 k
-    samples, so ``mem_mb = 1000 + 200 S`` (doubled on a retry) and ``runtime = 10 + 2 S`` minutes cover
-    every sport with room (a 60 k-step ski-jump day is ~5 MB of raw files: 2 GB, 20 min).
+    samples, so ``mem_mb = 1000 + 200 S`` and ``runtime = 10 + 2 S`` minutes cover every sport with room
+    (a 60 k-step ski-jump day is ~5 MB of raw files: 2 GB, 20 min). Each retry doubles both: on SLURM a
+    retry is a new job, so one killed for memory (OUT_OF_MEMORY) or time (TIMEOUT) gets twice as much.
 
     Parameters
     ----------
@@ -110,8 +123,187 @@ def session_resources(input_files: Any, attempt: int = 1) -> dict[str, int]:
     size = getattr(input_files, "size_mb", None)
     if size is None:
         size = sum(Path(f).stat().st_size for f in input_files if Path(f).exists()) / 1e6
-    mem = int(1000 + 200 * float(size))
-    return {"mem_mb": mem * (2 if attempt > 1 else 1), "runtime": int(10 + 2 * float(size))}
+    factor = 2 ** max(int(attempt) - 1, 0)
+    return {"mem_mb": int(1000 + 200 * float(size)) * factor, "runtime": int(10 + 2 * float(size)) * factor}
+
+
+def declared_outputs(session: Path, out: Path, session_mk: Path, target: str = "all") -> list[Path] | None:
+    """The files ``session.mk`` declares for a session's ``target`` (its ``outputs`` target).
+
+    Parameters
+    ----------
+    session, out : Path
+        The session's folder (with ``config.mk``) and its output folder.
+    session_mk : Path
+        ``pipelines/session.mk``.
+    target : str
+        ``all`` or one or more of ``results plots evaluation report`` (space-separated).
+
+    Returns
+    -------
+    list of Path or None
+        None when make cannot read the session's configuration (that session fails on its own).
+    """
+    cmd = ["make", "-s", "--no-print-directory", "-f", str(session_mk), f"SESSION={session}", f"OUT={out}"]
+    try:
+        run = subprocess.run([*cmd, f"TARGET={target}", "outputs"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    if run.returncode != 0:
+        return None
+    return [Path(line) for line in run.stdout.splitlines() if line.strip()]
+
+
+def scheduler_error_line(msg: str | None, log: str | None = None) -> str | None:
+    """One line from a Snakemake executor's job-error message: what the scheduler said or did.
+
+    ``sbatch: error: ...`` lines of a refused submission; ``SLURM job 123 ended CANCELLED`` (TIMEOUT,
+    OUT_OF_MEMORY, NODE_FAIL, ...) for a job that the scheduler ended; the job's SLURM log when ``log``
+    names one. None for an empty message (a local job: its own ``error`` file says why).
+    """
+    if not msg or not msg.strip():
+        return None
+    msg = msg.split("For further error details", 1)[0]
+    logs = re.findall(r"[^\s'\",\[\]]*slurm_logs[^\s'\",\[\]]*", log or "")
+    where = f" (its log: {logs[0]})" if logs else ""
+    if "sbatch failed" in msg or "submission failed" in msg:
+        m = re.search(r"The error message was '(.*?)'\.?\s*(?:\n\s*sbatch|$)", msg, re.S)
+        lines = [ln.strip() for ln in (m.group(1) if m else msg).splitlines() if ln.strip()]
+        errors = [ln for ln in lines if "error" in ln.lower()] or lines[:1]
+        return "sbatch refused the job: " + "; ".join(dict.fromkeys(errors))
+    m = re.search(r"SLURM-job '([^']+)' failed.*?SLURM status is: '([^']+)'", msg, re.S)
+    if m:
+        return f"SLURM job {m.group(1)} ended {m.group(2)}{where}"
+    return " ".join(msg.split())[:300] + where
+
+
+def _profile_resources(profile: dict[str, Any]) -> dict[str, str]:
+    res = profile.get("default-resources") or {}
+    if isinstance(res, list | tuple):
+        res = dict(str(r).split("=", 1) for r in res if "=" in str(r))
+    return {str(k): str(v).strip().strip("'\"") for k, v in dict(res).items()}
+
+
+def _run(cmd: list[str]) -> tuple[int, str]:
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=30)
+    except subprocess.TimeoutExpired:
+        return 124, f"{cmd[0]} did not answer in 30 s (is slurmctld up?)"
+    except OSError as exc:
+        return 127, f"{cmd[0]}: {exc.strerror}"
+    if r.returncode == 0:
+        return 0, r.stdout
+    lines = (r.stderr.strip() or r.stdout.strip()).splitlines()
+    return r.returncode, lines[-1] if lines else f"exit status {r.returncode}"
+
+
+#: The SLURM executor plugin checks a running job again at most this long after the last check [s].
+MAX_STATUS_INTERVAL = 180
+
+
+def check_slurm_profile(
+    profile: dict[str, Any], where: str = "the profile", run: Callable[[list[str]], tuple[int, str]] = _run
+) -> tuple[list[str], list[str]]:
+    """What would make every job of a Snakemake SLURM profile fail or hang, found before submitting.
+
+    Checked with the cluster's own commands: the partition exists (``sinfo``), the account is one of the
+    user's (``sacctmgr``; skipped where the cluster keeps no accounts), the partition does not cancel
+    pre-empted jobs, and with ``slurm-status-command: squeue`` that ``MinJobAge`` (how long slurmctld
+    remembers a finished job) outlasts the plugin's longest pause between status checks
+    (:data:`MAX_STATUS_INTERVAL`) -- else a finished job is never seen to finish.
+
+    Parameters
+    ----------
+    profile : dict
+        The profile's ``config.yaml`` as read by a YAML parser.
+    where : str
+        How to name the profile in messages.
+    run : callable
+        ``run(argv) -> (exit status, stdout or the last stderr line)``; the default runs the command.
+
+    Returns
+    -------
+    problems, notes : list of str
+        Problems (each one line: the run would fail or hang) and notes (worth knowing, not fatal).
+    """
+    problems: list[str] = []
+    notes: list[str] = []
+    if profile.get("executor") != "slurm":
+        return problems, notes
+    if shutil.which("sinfo") is None and run is _run:
+        return [f"{where} submits to SLURM, but sinfo is not on PATH: run it on the cluster's login node"], notes
+    res = _profile_resources(profile)
+    partition, account = res.get("slurm_partition", ""), res.get("slurm_account", "")
+    rc, out = run(["sinfo", "-h", "-o", "%R"])
+    if rc != 0:
+        return [f"sinfo failed: {out}"], notes
+    partitions = sorted({p.strip() for p in out.split()})
+    if partition and partition not in partitions:
+        problems.append(
+            f"partition '{partition}' (slurm_partition in {where}) is not on this cluster; "
+            f"its partitions: {', '.join(partitions) or 'none'}"
+        )
+    user = getpass.getuser()
+    rc, out = run(["sacctmgr", "-n", "-P", "show", "associations", "where", f"user={user}", "format=account"])
+    if rc == 0:
+        accounts = sorted({a.strip() for a in out.split()})
+        if account and account not in accounts:
+            problems.append(
+                f"account '{account}' (slurm_account in {where}) is not one of {user}'s SLURM accounts: "
+                f"{', '.join(accounts) or 'none'}"
+            )
+    else:
+        notes.append(f"the account is not checked: sacctmgr says {out}")
+    if partition and partition in partitions:
+        rc, out = run(["scontrol", "-o", "show", "partition", partition])
+        mode = re.search(r"PreemptMode=(\S+)", out) if rc == 0 else None
+        if mode and "CANCEL" in mode.group(1).upper():
+            problems.append(
+                f"partition '{partition}' cancels pre-empted jobs (PreemptMode={mode.group(1)}): the engine "
+                "would wait for such a job forever; use a partition that requeues them or none that pre-empts"
+            )
+    status = str(profile.get("slurm-status-command") or "")
+    if status == "squeue":
+        rc, out = run(["scontrol", "show", "config"])
+        age = re.search(r"^MinJobAge\s*=\s*(\d+)", out, re.M) if rc == 0 else None
+        if age and int(age.group(1)) <= MAX_STATUS_INTERVAL + 20:
+            problems.append(
+                f"MinJobAge is {age.group(1)} s on this cluster: squeue forgets a finished job before the "
+                f"engine's next status check (up to {MAX_STATUS_INTERVAL} s apart); ask for MinJobAge >= 300 s, "
+                f"or set slurm-status-command: sacct in {where} (then a cancelled job is not noticed)"
+            )
+    else:
+        how = f"slurm-status-command: {status}" if status else "no slurm-status-command (the plugin then uses sacct)"
+        notes.append(
+            f"{where} has {how}; the SLURM plugin does not take sacct's 'CANCELLED by <uid>' for a failure, "
+            "so a cancelled job would keep the run waiting: slurm-status-command: squeue notices it"
+        )
+    return problems, notes
+
+
+def _check_profile_cli(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m sportfusion.batch check-profile",
+        description="Check a Snakemake SLURM profile against this cluster (partition, account, polling) before "
+        "submitting; exit 2 with one line naming the first problem.",
+    )
+    ap.add_argument("profile", type=Path, help="profile folder (with config.yaml) or the YAML file")
+    args = ap.parse_args(argv)
+    path = args.profile / "config.yaml" if args.profile.is_dir() else args.profile
+    try:
+        import yaml
+
+        profile = yaml.safe_load(path.read_text()) or {}
+    except (OSError, ImportError, ValueError, yaml.YAMLError) as exc:
+        print(f"Error: cluster-batch: cannot read the profile {path}: {exc}", file=sys.stderr)
+        return 2
+    problems, notes = check_slurm_profile(profile if isinstance(profile, dict) else {}, where=str(path))
+    for note in notes:
+        print(f"cluster-batch: note: {note}", file=sys.stderr)
+    if problems:
+        print(f"Error: cluster-batch: {problems[0]}", file=sys.stderr)
+        return 2
+    return 0
 
 
 def _floats(table: pa.Table, name: str) -> np.ndarray | None:
@@ -128,7 +320,7 @@ def _rms_3d(summary: pa.Table, names: tuple[str, str, str]) -> float:
     return float(np.sqrt(np.sum(vals**2)))
 
 
-def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
+def session_row(name: str, config: dict[str, str], out: Path, outputs: list[Path] | None = None) -> dict[str, Any]:
     """One summary row from a session's output folder.
 
     Parameters
@@ -139,6 +331,9 @@ def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
         Its ``config.mk`` values (``SPORT`` ...).
     out : Path
         Its output folder: ``error`` (written by batch.mk on failure), the result tables.
+    outputs : list of Path, optional
+        The files its target declares (:func:`declared_outputs`): the session is ok only when all exist.
+        Without them, only the sport's result table is looked for.
 
     Returns
     -------
@@ -150,9 +345,17 @@ def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
     row.update(session=name, sport=sport, status="ok", error="", jumps=0)
     err = out / "error"
     result = out / RESULTS.get(sport, "-")
-    if err.exists() or not result.exists():
+    missing = [p for p in (outputs or [result]) if not p.exists()]
+    if err.exists() or missing or not result.exists():
         row["status"] = "failed"
-        row["error"] = err.read_text().strip() if err.exists() else f"no result {result.name}"
+        if err.exists():
+            row["error"] = err.read_text().strip()
+        elif not result.exists():
+            row["error"] = f"no result {result.name}"
+        else:
+            names = [str(p.relative_to(out)) if p.is_relative_to(out) else str(p) for p in missing]
+            more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+            row["error"] = f"incomplete (an interrupted run?): no {', '.join(names[:3])}{more}"
         return row
     table, _ = sfio.read_table(result)
     t = schema.floats(table, "t")
@@ -180,12 +383,19 @@ def session_row(name: str, config: dict[str, str], out: Path) -> dict[str, Any]:
     if ev.exists():
         st, _ = sfio.read_table(ev, kind="summary")
         row["pos_rms"] = _rms_3d(st, ("x", "y", "z"))
-        row["vel_rms"] = _rms_3d(st, ("vel_n", "vel_e", "vel_d"))
+        row["vel_rms"] = _rms_3d(st, ("vx", "vy", "vz") if "vx" in st.column_names else ("vel_n", "vel_e", "vel_d"))
     return row
 
 
-def collect(sessions: Path, out: Path) -> list[dict[str, Any]]:
+def collect(
+    sessions: Path, out: Path, session_mk: Path | None = None, target: str = "all", done_marker: str | None = None
+) -> list[dict[str, Any]]:
     """Summary rows of every ``sessions/<name>/config.mk``, in name order.
+
+    With ``session_mk`` (``pipelines/session.mk``) a session is ok only when every file ``target``
+    declares exists (:func:`declared_outputs`); without it, when its sport's result table exists. With
+    ``done_marker`` (the Snakefile's ``.done``, which the engine removes before it reruns a session) a
+    session without ``out/<name>/<done_marker>`` is not finished: a run that stopped left old files there.
 
     Raises
     ------
@@ -199,7 +409,12 @@ def collect(sessions: Path, out: Path) -> list[dict[str, Any]]:
     for cfg in configs:
         name = cfg.parent.name
         try:
-            rows.append(session_row(name, read_config(cfg), out / name))
+            declared = declared_outputs(cfg.parent, out / name, session_mk, target) if session_mk else None
+            row = session_row(name, read_config(cfg), out / name, declared)
+            if done_marker and row["status"] == "ok" and not (out / name / done_marker).exists():
+                row = {**{c: None for c, _ in COLUMNS}, "session": name, "sport": row["sport"], "jumps": 0}
+                row.update(status="failed", error="not finished: the run stopped before this session ended")
+            rows.append(row)
         except InputError as exc:
             rows.append({**{c: None for c, _ in COLUMNS}, "session": name, "status": "failed", "error": str(exc)})
     return rows
@@ -216,11 +431,21 @@ def summary_table(rows: list[dict[str, Any]]) -> pa.Table:
     return pa.table(cols)
 
 
+#: what the summary's text columns mean (printed under the table)
+SUMMARY_LEGEND = (
+    "time: the recording's length; v_max: the largest estimated speed; jump: jump length along the landing "
+    "profile (jump-metrics); video: the same read from the landing video (video-jumplength); v_takeoff: the "
+    "speed at take-off; [km/h]: the speed before it in km/h; pos_RMS, vel_RMS: 3-D RMS error of position and "
+    "velocity against the simulated truth (evaluate); -: not measured for this session"
+)
+
+
 def format_summary(rows: list[dict[str, Any]]) -> str:
-    """A readable table: one line per session, then the failed sessions with their errors."""
+    """A readable table: one line per session (units in brackets in the header), what the columns mean,
+    then the failed sessions with their errors."""
     head = (
-        f"{'session':<16} {'sport':<9} {'status':<7} {'dur[s]':>7} {'vmax[m/s]':>9} {'[km/h]':>7} {'L[m]':>7} "
-        f"{'L_video':>7} {'v_TO[m/s]':>9} {'[km/h]':>7} {'pos_rms[m]':>10} {'vel_rms[m/s]':>12}"
+        f"{'session':<16} {'sport':<9} {'status':<7} {'time[s]':>7} {'v_max[m/s]':>10} {'[km/h]':>7} "
+        f"{'jump[m]':>7} {'video[m]':>8} {'v_takeoff[m/s]':>14} {'[km/h]':>7} {'pos_RMS[m]':>10} {'vel_RMS[m/s]':>12}"
     )
     lines = [head, "-" * len(head)]
 
@@ -234,10 +459,13 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         lines.append(
             f"{r['session']:<16} {str(r.get('sport')):<9} {r['status']:<7} {f(r.get('duration'), '7.1f')} "
-            f"{f(r.get('max_speed'), '9.2f')} {f(kmh(r.get('max_speed')), '7.1f')} {f(r.get('jump_length'), '7.2f')} "
-            f"{f(r.get('video_jump_length'), '7.2f')} {f(r.get('takeoff_speed'), '9.2f')} "
+            f"{f(r.get('max_speed'), '10.2f')} {f(kmh(r.get('max_speed')), '7.1f')} {f(r.get('jump_length'), '7.2f')} "
+            f"{f(r.get('video_jump_length'), '8.2f')} {f(r.get('takeoff_speed'), '14.2f')} "
             f"{f(kmh(r.get('takeoff_speed')), '7.1f')} {f(r.get('pos_rms'), '10.3f')} {f(r.get('vel_rms'), '12.3f')}"
         )
+    import textwrap
+
+    lines += textwrap.wrap(SUMMARY_LEGEND, len(head), initial_indent="", subsequent_indent="  ")
     failed = [r for r in rows if r["status"] != "ok"]
     lines.append(f"\n{len(rows) - len(failed)} of {len(rows)} sessions ok, {len(failed)} failed")
     lines += [f"  FAILED {r['session']}: {r['error']}" for r in failed]
@@ -245,16 +473,24 @@ def format_summary(rows: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m sportfusion.batch OUT [--sessions DIR]``: write OUT/summary.{parquet,csv,txt}; exit 1 if any
-    session failed."""
+    """``python -m sportfusion.batch OUT --sessions DIR``: write OUT/summary.{parquet,csv,txt}; exit 1 if any
+    session failed. ``python -m sportfusion.batch check-profile PROFILE``: check a SLURM profile."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["check-profile"]:
+        return _check_profile_cli(argv[1:])
     ap = argparse.ArgumentParser(prog="python -m sportfusion.batch", description=main.__doc__)
     ap.add_argument("out", type=Path, help="batch output folder (one sub-folder per session)")
     ap.add_argument("--sessions", type=Path, required=True, help="sessions folder (one sub-folder per session)")
     ap.add_argument("--engine", default="make", help="what ran the sessions, for the provenance (e.g. 'snakemake 9.1')")
     ap.add_argument("--engine-params", default="", help="the engine's settings, for the provenance (free text)")
+    ap.add_argument(
+        "--session-mk", type=Path, help="pipelines/session.mk: a session is ok only when all files of --target exist"
+    )
+    ap.add_argument("--target", default="all", help="the session.mk target(s) the sessions were run to (default all)")
+    ap.add_argument("--done-marker", help="a session is finished only when OUT/<name>/DONE_MARKER exists (.done)")
     args = ap.parse_args(argv)
     try:
-        rows = collect(args.sessions, args.out)
+        rows = collect(args.sessions, args.out, args.session_mk, args.target, args.done_marker)
     except InputError as exc:
         print(f"Error: batch: {exc}", file=sys.stderr)
         return 1

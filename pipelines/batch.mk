@@ -5,8 +5,8 @@
 #
 # A failing session does not stop the others (its sub-make runs under -k); it is listed with its error
 # line at the end, and the whole run then exits non-zero. OUT/summary.{txt,csv,parquet} hold one row
-# per session (jump lengths, speeds, errors against the truth where there is one). Re-running redoes
-# only what changed.
+# per session (jump lengths, speeds, errors against the truth where there is one; a session is ok only
+# when every file its TARGET declares exists). Re-running redoes only what changed.
 
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
@@ -36,4 +36,5 @@ $(NAMES:%=session-%): session-%:
 	     echo "FAILED  $*: $$(cat $(OUT)/$*/error)"; exit 1; fi
 
 summary:
-	$(PYTHON) -m sportfusion.batch $(OUT) --sessions $(SESSIONS) --engine "GNU make $(MAKE_VERSION)" --engine-params "target=$(TARGET)"
+	@$(PYTHON) -m sportfusion.batch $(OUT) --sessions $(SESSIONS) --session-mk $(SESSION_MK) --target "$(TARGET)" \
+	  --engine "GNU make $(MAKE_VERSION)" --engine-params "target=$(TARGET)"

@@ -1,6 +1,7 @@
 # One session, raw recordings -> results. Each stage is a file, so `make` redoes only what changed.
 #
 #   make -f pipelines/session.mk SESSION=fixtures/skijump OUT=out/skijump [results|plots|evaluation|report]
+#   make -s -f pipelines/session.mk SESSION=... OUT=... [TARGET=all] outputs    # the files a target makes
 #
 # SESSION is a folder with a `config.mk` naming the sport and the venue, and the raw files it lists:
 #   SPORT   = skijump | skirace | gates | climbing
@@ -34,7 +35,7 @@ TRUTHFILE := $(if $(TRUTH),$(S)/$(TRUTH))
 # a RAW that is already a session table (a simulated one) skips ingest
 INGEST := $(if $(filter %.parquet,$(RAW)),cat $(RAWFILES),$(BIN)ingest $(Q) $(RAWFILES))
 
-.PHONY: results plots evaluation report all
+.PHONY: results plots evaluation report all outputs
 all: results plots evaluation report
 
 $(O)/.dir:
@@ -42,10 +43,10 @@ $(O)/.dir:
 
 # --------------------------------------------------------------------------- ski jump
 ifeq ($(SPORT),skijump)
-results: $(O)/jumps.parquet $(if $(VIDEO),$(O)/table7.txt)
-plots: $(O)/plots/speed.png $(O)/plots/series.png $(O)/plots/mag.png $(O)/plots/track.png $(if $(TRUTH),$(O)/plots/errors.png)
-evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet $(O)/evaluation_gnss.txt)
-report: $(O)/report.html
+OUT_RESULTS := $(O)/jumps.parquet $(if $(VIDEO),$(O)/table7.txt)
+OUT_PLOTS := $(O)/plots/speed.png $(O)/plots/series.png $(O)/plots/mag.png $(O)/plots/track.png $(if $(TRUTH),$(O)/plots/errors.png)
+OUT_EVALUATION := $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet $(O)/evaluation_gnss.txt)
+OUT_REPORT := $(O)/report.html
 
 # cheap stages piped: raw files -> one session in the hill frame with take-off/touch-down events
 $(O)/events.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
@@ -80,10 +81,10 @@ endif
 
 # --------------------------------------------------------------------------- ski racing, GNSS
 ifeq ($(SPORT),skirace)
-results: $(O)/attitude.parquet
-plots: $(O)/plots/spline.png $(O)/plots/series.png
-evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
-report: $(O)/report.html
+OUT_RESULTS := $(O)/attitude.parquet
+OUT_PLOTS := $(O)/plots/spline.png $(O)/plots/series.png
+OUT_EVALUATION := $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+OUT_REPORT := $(O)/report.html
 
 $(O)/spline.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) | $(BIN)gps2hill $(Q) --origin $(ORIGIN) --azimuth $(AZIMUTH) \
@@ -104,10 +105,10 @@ endif
 
 # --------------------------------------------------------------------------- ski racing, magnet gates
 ifeq ($(SPORT),gates)
-results: $(O)/anchored.parquet
-plots: $(O)/plots/course.png $(O)/plots/series.png $(if $(BODY),$(O)/plots/body.png)
-evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
-report: $(O)/report.html
+OUT_RESULTS := $(O)/anchored.parquet
+OUT_PLOTS := $(O)/plots/course.png $(O)/plots/series.png $(if $(BODY),$(O)/plots/body.png)
+OUT_EVALUATION := $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+OUT_REPORT := $(O)/report.html
 
 $(O)/crossings.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) $(if $(BODY),| $(BIN)body-model $(Q) $(BODY)) | $(BIN)detect-events $(Q) --kind gates -o $@
@@ -129,10 +130,10 @@ endif
 
 # --------------------------------------------------------------------------- climbing
 ifeq ($(SPORT),climbing)
-results: $(O)/holds.parquet
-plots: $(O)/plots/holds.png
-evaluation: $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
-report: $(O)/report.html
+OUT_RESULTS := $(O)/holds.parquet
+OUT_PLOTS := $(O)/plots/holds.png
+OUT_EVALUATION := $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
+OUT_REPORT := $(O)/report.html
 
 $(O)/grips.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
 	$(INGEST) | $(BIN)detect-events $(Q) --kind grips -o $@
@@ -147,6 +148,22 @@ $(O)/report.html: $(O)/holds.parquet $(S)/$(HOLDS) $(if $(TRUTH),$(O)/evaluation
 $(O)/plots/holds.png: $(O)/holds.parquet $(S)/$(HOLDS)
 	$(BIN)plot holds $(Q) $< --holds $(S)/$(HOLDS) $(if $(TRUTH),--truth $(TRUTHFILE)) -o $@
 endif
+
+# each target's files (set by the sport's block above)
+results: $(OUT_RESULTS)
+plots: $(OUT_PLOTS)
+evaluation: $(OUT_EVALUATION)
+report: $(OUT_REPORT)
+
+# the files TARGET (default all; several allowed) declares, one a line: a batch's summary calls a session
+# ok only when every one of them exists (an interrupted run leaves some out)
+OUTPUTS_results = $(OUT_RESULTS)
+OUTPUTS_plots = $(OUT_PLOTS)
+OUTPUTS_evaluation = $(OUT_EVALUATION)
+OUTPUTS_report = $(OUT_REPORT)
+OUTPUTS_all = $(foreach t,results plots evaluation report,$(OUTPUTS_$(t)))
+outputs:
+	@printf '%s\n' $(sort $(foreach t,$(or $(TARGET),all),$(OUTPUTS_$(t))))
 
 ifeq ($(filter $(SPORT),skijump skirace gates climbing),)
 $(error $(S)/config.mk: SPORT = '$(SPORT)' is not one of skijump skirace gates climbing)

@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import rotations, schema
-from sportfusion.evaluate import evaluate, format_text, phases, summary_table
+from sportfusion.evaluate import errors, evaluate, format_text, phases, summary_table
 
 FIX = ROOT / "fixtures" / "skijump"
 D_POS = {"inrun": (0.1, -0.2, 0.3), "flight": (0.4, 0.0, -0.5), "outrun": (-0.3, 0.25, 0.1)}
@@ -76,13 +76,19 @@ def test_known_errors_are_returned(truth):
     for k, name in enumerate(("x", "y", "z")):
         expect = math.sqrt(sum(n[p] * D_POS[p][k] ** 2 for p in D_POS) / sum(n.values()))
         assert ev.stats["all"]["rms"][name] == pytest.approx(expect, abs=1e-12)
-    # velocity: a constant hill-frame error is a constant NED error, rotated by the azimuth
+    # velocity: in the position's frame (the hill frame), the constructed error exactly
+    for name, val in zip(("vx", "vy", "vz"), D_VEL_HILL, strict=True):
+        assert ev.stats["all"]["mean"][name] == pytest.approx(val, abs=1e-12)
+        assert ev.stats["all"]["rms"][name] == pytest.approx(abs(val), abs=1e-12)
+    assert not {"vel_n", "vel_e", "vel_d"} & set(ev.variables)
+    assert ev.frame == f"hill frame ({tmeta['frame']['axes']}; x at azimuth 312.6 deg)"
+    # the paper's Table 6 velocity (NED, v_O) on request: the same error rotated by the azimuth
     az = math.radians(tmeta["frame"]["azimuth_deg"])
     dn = D_VEL_HILL[0] * math.cos(az) - D_VEL_HILL[1] * math.sin(az)
     de = D_VEL_HILL[0] * math.sin(az) + D_VEL_HILL[1] * math.cos(az)
+    _, _, err = errors(est, table, tmeta["frame"]["azimuth_deg"], velocity_frame="ned")
     for name, val in (("vel_n", dn), ("vel_e", de), ("vel_d", D_VEL_HILL[2])):
-        assert ev.stats["all"]["mean"][name] == pytest.approx(val, abs=1e-12)
-        assert ev.stats["all"]["rms"][name] == pytest.approx(abs(val), abs=1e-12)
+        np.testing.assert_allclose(err[name], val, atol=1e-12)
     # attitude: rotation angle exactly D_ROT; Euler errors as scipy computes them (z-y-x)
     assert ev.stats["all"]["max"]["rot_angle"] == pytest.approx(D_ROT, abs=1e-12)
     assert ev.stats["all"]["rms"]["rot_angle"] == pytest.approx(D_ROT, abs=1e-12)
@@ -189,7 +195,7 @@ def test_gnss_baseline(truth):
     # the GNSS error model: 3/3/5 m and 0.1/0.1/0.3 m/s (within 20 % on 259 epochs)
     rms = ev.stats["all"]["rms"]
     assert ev.stats["all"]["n"] == int(g.sum())  # the GNSS epochs, not every row
-    for name, sigma in (("x", 3), ("y", 3), ("z", 5), ("vel_n", 0.1), ("vel_e", 0.1), ("vel_d", 0.3)):
+    for name, sigma in (("x", 3), ("y", 3), ("z", 5), ("vx", 0.1), ("vy", 0.1), ("vz", 0.3)):
         assert rms[name] == pytest.approx(sigma, rel=0.2)
 
 
@@ -212,9 +218,12 @@ def test_gnss_without_vertical_velocity(truth):
     meta = sfmeta.new_meta("session", tmeta["time"]["epoch_utc"])
     meta["frame"] = tmeta["frame"]
     ev = evaluate(est, meta, table, tmeta, gnss=True)
-    assert "vel_d" not in ev.variables and {"vel_n", "vel_e"} <= set(ev.variables)
-    assert ev.stats["all"]["mean"]["vel_n"] == pytest.approx(-0.04, abs=1e-12)
-    assert ev.stats["all"]["rms"]["vel_e"] == pytest.approx(0.03, abs=1e-12)
+    # in the local (hill) frame like the position: the NED error (-0.04, +0.03) rotated by the azimuth
+    assert "vz" not in ev.variables and {"vx", "vy"} <= set(ev.variables)
+    az = math.radians(tmeta["frame"]["azimuth_deg"])
+    dx, dy = -0.04 * math.cos(az) + 0.03 * math.sin(az), 0.04 * math.sin(az) + 0.03 * math.cos(az)
+    assert ev.stats["all"]["mean"]["vx"] == pytest.approx(dx, abs=1e-12)
+    assert ev.stats["all"]["rms"]["vy"] == pytest.approx(abs(dy), abs=1e-12)
     assert ev.stats["all"]["max"]["x"] == pytest.approx(1.5, abs=1e-9)
     assert ev.stats["all"]["n"] == t.size
 

@@ -24,7 +24,11 @@ def test_batch_summary_gives_km_h_beside_m_s():
         "vel_rms": 0.03,
     }
     head, _, line = format_summary([row]).splitlines()[:3]
-    assert "vmax[m/s]" in head and "v_TO[m/s]" in head and head.count("[km/h]") == 2
+    assert "v_max[m/s]" in head and "v_takeoff[m/s]" in head and head.count("[km/h]") == 2
+    # every header is explained under the table
+    legend = " ".join(format_summary([row]).splitlines()[3:])
+    for name in ("time", "v_max", "jump", "video", "v_takeoff", "[km/h]", "pos_RMS, vel_RMS"):
+        assert f"{name}:" in legend, name
     cells = line.split()
     assert cells[cells.index("28.00") + 1] == "100.8" and cells[cells.index("25.00") + 1] == "90.0"
     # a session without a speed prints '-' in both

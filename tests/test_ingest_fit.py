@@ -368,3 +368,29 @@ def test_fit_out_of_order_and_repeated_records_follow_the_time_policy(tmp_path):
     np.testing.assert_allclose(table.column("t").to_numpy(), [0.0, 1.0, 2.0])
     np.testing.assert_allclose(table.column("heart_rate").to_numpy(), [100, 101, 102])  # the first in file order wins
     assert "backward" in r.stderr.decode() and "conflict" in r.stderr.decode()  # reported, not silent
+
+
+def test_fit_record_clock_jump_of_days_is_reported_and_kept(tmp_path):
+    """A watch whose record clock jumps 20 days mid-file while its session's elapsed time is 20 minutes:
+    one warning names the jump and the elapsed time; the timeline is kept as written (not re-based)."""
+    p = tmp_path / "jump.fit"
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    times = [T0 + dt.timedelta(seconds=s) for s in range(600)]
+    times += [T0 + dt.timedelta(days=20, seconds=600 + s) for s in range(600)]
+    for i, ts in enumerate(times):
+        enc.on_mesg(
+            MN["RECORD"],
+            {"timestamp": ts, "position_lat": semi(47.0 + i * 2e-5), "position_long": semi(11.0), "heart_rate": 120},
+        )
+    enc.on_mesg(
+        MN["SESSION"],
+        {"timestamp": times[-1], "start_time": T0, "total_elapsed_time": 1200.0, "total_timer_time": 1200.0},
+    )
+    p.write_bytes(enc.close())
+    rec = read_recording(p)
+    (st,) = [s for s in rec.streams if s.name == "fit_record"]
+    d = np.diff(st.t)
+    assert d.max() == pytest.approx(20 * 86400 + 1.0)  # kept as written
+    line = next(w for w in rec.warnings if "record clock" in w)
+    assert "forward by 20.0 d" in line and "elapsed time" in line and "0.3 h" in line and "kept as written" in line

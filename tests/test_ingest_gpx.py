@@ -275,3 +275,25 @@ def test_height_from_vendor_extensions_and_untimed_points_dropped_with_a_warning
     table, _, warnings = combine([rec])
     assert table.num_rows == 3
     assert any("1 sample(s) without a finite time dropped (first index: 2)" in w for w in warnings)
+
+
+def test_accuracy_extensions_and_invalid_markers(tmp_path):
+    """A phone logger's accuracy extensions become sigmas (68 % radius / 1.5096); -1 speed/course and a
+    negative accuracy (iOS: invalid fix) are nulls; HDOP 99.99 is no value."""
+    pts = [
+        trkpt(47.1, 9.5, 500.0, "2026-01-27T10:00:00Z",
+              "<hdop>99.99</hdop><extensions><hAcc>7.548</hAcc><vAcc>4.0</vAcc><speed>-1</speed><course>-1</course></extensions>"),
+        trkpt(47.10001, 9.5, 501.0, "2026-01-27T10:00:01Z",
+              "<hdop>1.2</hdop><extensions><hAcc>-1</hAcc><vAcc>-1</vAcc><speed>1.5</speed><course>90</course></extensions>"),
+        trkpt(47.10002, 9.5, 502.0, "2026-01-27T10:00:02Z",
+              "<extensions><accuracy>3.0192</accuracy><speed>1.6</speed><course>-1</course></extensions>"),
+    ]  # fmt: skip
+    rec = gpx.read(write(tmp_path, [pts]), Options())
+    sh = col(rec, "gnss_sigma_h")
+    assert sh[0] == pytest.approx(7.548 / 1.5096, rel=1e-4) and sh[1] is None and sh[2] == pytest.approx(2.0, rel=1e-4)
+    assert col(rec, "gnss_sigma_v")[0] == 4.0
+    assert col(rec, "lat")[1] is None and col(rec, "lon")[1] is None and col(rec, "lat")[0] == 47.1
+    assert col(rec, "h_msl")[1] is None and col(rec, "h_msl")[2] == 502.0
+    assert col(rec, "gnss_speed") == [None, 1.5, 1.6] and col(rec, "gnss_course") == [None, 90.0, None]
+    assert col(rec, "vel_e")[1] == pytest.approx(1.5) and col(rec, "vel_n")[0] is None and col(rec, "vel_n")[2] is None
+    assert col(rec, "gnss_hdop") == [None, 1.2, None]

@@ -343,3 +343,75 @@ def test_gga_only_without_date_is_refused_by_ingest_naming_date(tmp_path):
     proc = subprocess.run([str(BIN / "ingest"), str(p), "--date", "2026-01-05", "-o", str(out)], capture_output=True)
     assert proc.returncode == 0, proc.stderr.decode()
     assert epoch_unix(sfio.read_table(out)[1]) == calendar.timegm((2026, 1, 5, 12, 0, 0))
+
+
+def _ubx(rng: np.random.Generator, msg_class: int, msg_id: int, size: int) -> bytes:
+    """One u-blox UBX binary message (sync 0xB5 0x62, class, id, little-endian length, payload, Fletcher checksum)."""
+    body = (
+        bytes([msg_class, msg_id]) + size.to_bytes(2, "little") + rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+    )
+    a = b = 0
+    for byte in body:
+        a = (a + byte) & 0xFF
+        b = (b + a) & 0xFF
+    return b"\xb5\x62" + body + bytes([a, b])
+
+
+def test_ubx_log_with_interleaved_nmea_is_sniffed_and_read(tmp_path):
+    """A u-blox .ubx log: per second a NAV-PVT (92 B) and an RXM-RAWX (~1.3 kB) binary message, with the
+    receiver's NMEA output (GGA + RMC) between them; the binary lines outnumber the sentences."""
+    rng = np.random.default_rng(4)
+    out = bytearray()
+    for k in range(30):
+        hh, mm, ss = 10, 0, k
+        out += _ubx(rng, 0x01, 0x07, 92) + _ubx(rng, 0x02, 0x15, 16 + 32 * 40)
+        lat = f"4730.{k:04d}"
+        out += sentence(f"GNGGA,{hh:02d}{mm:02d}{ss:02d}.00,{lat},N,00930.0000,E,1,12,0.8,500.0,M,47.5,M,,").encode()
+        out += b"\r\n"
+        out += sentence(f"GNRMC,{hh:02d}{mm:02d}{ss:02d}.00,A,{lat},N,00930.0000,E,1.9,45.0,270126,,,A").encode()
+        out += b"\r\n"
+    p = tmp_path / "COM3_260127_100000.ubx"
+    p.write_bytes(bytes(out))
+    lines = [ln for ln in bytes(out).decode("ascii", "replace").splitlines() if ln.strip()]
+    assert sum(1 for ln in lines if nmea.find_sentences(ln)) < 0.25 * len(lines)  # the old share rule failed
+    assert nmea.sniff(p, bytes(out)[:4096])
+    rec = read_recording(p)
+    assert rec.format == "nmea"
+    (st,) = rec.streams
+    assert st.t.size == 30 and np.allclose(np.diff(st.t), 1.0)
+    assert col(rec, "gnss_speed")[0] == pytest.approx(1.9 * 1852 / 3600)
+    assert any("binary" in w for w in rec.warnings)
+
+
+def test_csv_is_not_nmea_even_with_binary_lines(tmp_path):
+    p = tmp_path / "x.csv"
+    data = b"time,a,b\n" + b"".join(f"{i},{i * 2},{i * 3}\n".encode() for i in range(50)) + b"\x00\x01\x02\n" * 20
+    p.write_bytes(data)
+    assert not nmea.sniff(p, data[:4096])
+
+
+def test_gga_log_whose_rmc_all_fail_their_checksum_names_them_and_date(tmp_path):
+    lines = []
+    for k in range(5):
+        lines.append(sentence(f"GPGGA,1200{k:02d}.00,4730.0000,N,00930.0000,E,1,8,1.0,500.0,M,47.5,M,,"))
+        good = sentence(f"GPRMC,1200{k:02d}.00,A,4730.0000,N,00930.0000,E,0.0,,270126,,,A")
+        lines.append(good[:-2] + ("00" if good[-2:] != "00" else "11"))  # a wrong checksum
+    p = tmp_path / "gga.nmea"
+    p.write_text("\r\n".join(lines) + "\r\n")
+    with pytest.raises(InputError) as err:
+        read_recording(p)
+    msg = str(err.value)
+    assert "5 RMC sentence(s) failed their checksum" in msg and "--date" in msg
+    rec = read_recording(p, opts=Options(date="2026-01-27"))
+    assert rec.streams[0].t.size == 5
+
+
+def test_hdop_unknown_marker_is_null(tmp_path):
+    bodies = [
+        "GPGGA,120000.00,4730.0000,N,00930.0000,E,1,8,99.99,500.0,M,47.5,M,,",
+        "GPRMC,120000.00,A,4730.0000,N,00930.0000,E,0.0,,270126,,,A",
+        "GPGGA,120001.00,4730.0000,N,00930.0000,E,1,8,1.2,500.0,M,47.5,M,,",
+    ]
+    rec = read_recording(write(tmp_path, bodies))
+    h = col(rec, "gnss_hdop")
+    assert h[0] is None and h[1] == 1.2

@@ -353,3 +353,30 @@ def test_one_unreadable_set_does_not_sink_the_export_and_offset_places_it(tmp_pa
     table, meta = sfio.read_table(out, kind="session")
     np.testing.assert_allclose(table.column("t").to_numpy(), [2.5, 2.51])
     assert epoch_unix(meta) is None
+
+
+def test_ios_gps_csv_invalid_markers_are_null(tmp_path):
+    """A custom experiment's GPS.csv from iOS: -1 for unknown speed and course, a negative accuracy for an
+    invalid fix (Core Location's markers) are nulls, never a speed of -1 m/s or an invented vel_n."""
+    from sportfusion.ingest import read_recording
+
+    p = tmp_path / "GPS.csv"
+    p.write_text(
+        '"Time (s)","Latitude (°)","Longitude (°)","Height (m)","Speed (m/s)","Direction (°)",'
+        '"Horizontal Accuracy (m)","Vertical Accuracy (m)"\n'
+        "0.0,47.1,9.5,500.0,-1,-1,5.0,3.0\n"
+        "1.0,47.10001,9.5,500.5,2.0,-1,5.0,-1\n"
+        "2.0,47.10002,9.5,501.0,2.0,90.0,-1,3.0\n"
+        "3.0,47.10003,9.5,501.5,0.0,-1,4.0,3.0\n"
+    )
+    rec = read_recording(p)
+    (st,) = rec.streams
+    c = {k: np.asarray(v, dtype=float) for k, v in st.columns.items()}
+    assert math.isnan(c["gnss_speed"][0]) and c["gnss_speed"][1] == 2.0
+    assert np.isnan(c["gnss_course"][[0, 1, 3]]).all() and c["gnss_course"][2] == 90.0
+    # no velocity where speed or course is unknown; a speed of 0 needs no course
+    assert np.isnan(c["vel_n"][:2]).all() and c["vel_e"][2] == pytest.approx(2.0) and c["vel_n"][3] == 0.0
+    assert np.isnan(c["lat"][2]) and np.isnan(c["lon"][2]) and c["lat"][1] == 47.10001  # negative h. accuracy
+    assert np.isnan(c["h_msl"][1]) and c["h_msl"][2] == 501.0  # negative vertical accuracy: no altitude
+    assert np.isnan(c["gnss_sigma_h"][2]) and np.isnan(c["gnss_sigma_v"][1])
+    assert any("invalid markers" in w for w in rec.warnings)

@@ -391,3 +391,80 @@ def test_xyz_utc_without_velocity(tmp_path):
     assert col(rec, "lat") == pytest.approx(lat + 1e-5 * np.arange(4), abs=5e-9)
     assert col(rec, "h") == pytest.approx([h] * 4, abs=1e-3)
     assert "vel_n" not in rec.streams[0].columns
+
+
+ENU_HEAD = """\
+% program   : RNX2RTKP ver.2.4.3 b34
+% inp file  : rover.obs
+% obs start : 2026/01/05 13:00:18.0 GPST (week2400 133218.0s)
+% pos mode  : Kinematic
+% ref pos   :  46.497500000    9.836500000  2210.1234
+%
+% (e/n/u-baseline=WGS84,Q=1:fix,2:float,3:sbas,4:dgps,5:single,6:ppp,ns=# of satellites)
+%  GPST                  e-baseline(m)  n-baseline(m)  u-baseline(m)   Q  ns   sde(m)   sdn(m)   sdu(m)  sden(m)  sdnu(m)  sdue(m) age(s)  ratio
+"""
+BASE = (46.4975, 9.8365, 2210.1234)
+
+
+def enu_file(tmp_path, head=ENU_HEAD, name="enu.pos"):
+    """Rover positions a few hundred metres to 3 km from the base, as RTKLIB's outenu writes them (%14.4f ...)."""
+    rng = np.random.default_rng(8)
+    truth = []
+    rows = []
+    for i in range(6):
+        lat = BASE[0] + rng.uniform(-0.02, 0.02)
+        lon = BASE[1] + rng.uniform(-0.03, 0.03)
+        h = BASE[2] + rng.uniform(-300, 50)
+        e, n, u = pymap3d.geodetic2enu(lat, lon, h, *BASE)  # independent of the reader's pyproj pipeline
+        sd = (0.004, 0.005, 0.012, 0.001, -0.002, 0.003)
+        rows.append(
+            f"2026/01/05 13:00:{18 + i:02d}.000 {e:14.4f} {n:14.4f} {u:14.4f} {1:3d} {12:3d}"
+            + "".join(f" {v:8.4f}" for v in sd)
+            + f" {0.0:6.2f} {55.3:6.1f}"
+        )
+        truth.append((lat, lon, h))
+    p = tmp_path / name
+    p.write_text(head + "\n".join(rows) + "\n")
+    return p, np.array(truth)
+
+
+def test_enu_baseline_with_ref_pos_header(tmp_path):
+    p, truth = enu_file(tmp_path)
+    assert rtklib.sniff(p, p.read_bytes()[:4096])
+    rec = rtklib.read(p, Options())
+    lat, lon, h = (np.array(col(rec, c)) for c in ("lat", "lon", "h"))
+    # the file rounds baselines to 0.1 mm: positions agree with the truth to that
+    e, n, u = pymap3d.geodetic2enu(lat, lon, h, truth[:, 0], truth[:, 1], truth[:, 2])
+    assert np.max(np.abs([e, n, u])) < 2e-4  # [m]
+    assert col(rec, "gnss_fix") == [4] * 6 and col(rec, "gnss_sats") == [12] * 6
+    assert col(rec, "gnss_sigma_e")[0] == 0.004 and col(rec, "gnss_sigma_n")[0] == 0.005
+    assert col(rec, "gnss_sigma_v")[0] == 0.012
+    assert (
+        col(rec, "gnss_sdne")[0] == 0.001 and col(rec, "gnss_sdun")[0] == -0.002 and col(rec, "gnss_sdeu")[0] == 0.003
+    )
+    assert rec.meta["base"] == {"lat": BASE[0], "lon": BASE[1], "h": BASE[2]}
+
+
+def test_enu_baseline_base_from_option_or_refused(tmp_path):
+    head = "\n".join(ln for ln in ENU_HEAD.splitlines() if "ref pos" not in ln) + "\n"
+    p, truth = enu_file(tmp_path, head=head)
+    with pytest.raises(InputError, match="--base LAT,LON,H"):
+        rtklib.read(p, Options())
+    rec = rtklib.read(p, Options(base=BASE))
+    assert np.allclose(col(rec, "lat"), truth[:, 0], atol=1e-8) and np.allclose(col(rec, "h"), truth[:, 2], atol=2e-4)
+    # --base beats the header and says so
+    q, _ = enu_file(tmp_path, name="other.pos")
+    rec = rtklib.read(q, Options(base=(BASE[0], BASE[1], BASE[2] + 10.0)))
+    assert np.allclose(np.array(col(rec, "h")) - truth[:, 2], 10.0, atol=1e-3)
+    assert any("instead of the header's ref pos" in w for w in rec.warnings)
+
+
+def test_ingest_base_option(tmp_path):
+    head = "\n".join(ln for ln in ENU_HEAD.splitlines() if "ref pos" not in ln) + "\n"
+    p, truth = enu_file(tmp_path, head=head)
+    r = subprocess.run([str(BIN / "ingest"), str(p), "--base", "46.4975,9.8365,2210.1234"], capture_output=True)
+    assert r.returncode == 0, r.stderr.decode()
+    table = sfio.table_from_bytes(r.stdout)
+    assert np.allclose(table.column("lat").to_numpy(), truth[:, 0], atol=1e-8)
+    bad = subprocess.run([str(BIN / "ingest"), str(p), "--base", "46.4,9.8"], capture_output=True)
+    assert bad.returncode == 2 and b"--base" in bad.stderr

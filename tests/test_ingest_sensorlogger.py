@@ -101,7 +101,10 @@ def test_ios_export_nanosecond_times_and_specific_force(tmp_path, as_zip):
     loc = stream(rec, "Location")
     np.testing.assert_allclose(loc.t, [0.005, 1.005], atol=1e-12)
     assert col(loc, "lat").tolist() == [47.4049, 47.405]
-    assert col(loc, "h").tolist() == [947.9, 948.0]  # documented as height above the WGS84 ellipsoid
+    # h: documented as height above the WGS84 ellipsoid; Core Location's negative verticalAccuracy says the
+    # altitude is invalid (Apple: "a negative value indicates that the altitude value is invalid"): null
+    h = col(loc, "h")
+    assert h[0] == 947.9 and math.isnan(h[1])
     sig = col(loc, "gnss_sigma_h")
     assert sig[0] == pytest.approx(4.5288 / math.sqrt(-2 * math.log(0.32))) and sig[1] == pytest.approx(
         3.0192 / math.sqrt(-2 * math.log(0.32))
@@ -174,3 +177,78 @@ def test_rows_repeating_a_time_are_dropped_and_counted(tmp_path):
     np.testing.assert_allclose(g.t, [0.0, 10e-9, 5e-9], atol=1e-18)  # order kept; merge sorts later
     assert col(g, "gyr_x").tolist() == [3.0, 4.0, 5.0]
     assert rec.warnings == ["Gyroscope.csv: 2 row(s) repeating an earlier time dropped (first kept)"]
+
+
+T2021 = 1_623_492_930_000_000_000  # 2021-06-12 10:15:30 UTC [ns]
+
+
+def export_2021(tmp_path: Path, clock_offset_s: float, gnss_delay_s: float = 3.0, as_zip: bool = False) -> Path:
+    """An early iOS export (Metadata version 2): motion files ``time,z,y,x`` (no seconds_elapsed) stamped on a
+    clock ``clock_offset_s`` behind Location.csv's; the first fix comes ``gnss_delay_s`` after the start."""
+    d = tmp_path / f"2021-06-12_12-15-30_{clock_offset_s}"
+    d.mkdir()
+    n = 200
+    tm = T2021 + np.arange(n, dtype=np.int64) * 10_000_000  # 100 Hz, true UTC
+    motion = tm - int(clock_offset_s * 1e9)
+    tl = T2021 + int(gnss_delay_s * 1e9) + np.arange(3, dtype=np.int64) * 1_000_000_000
+
+    def plain(times, cols):
+        return "".join(
+            ",".join([str(int(t)), *(repr(float(c)) for c in r)]) + "\n" for t, r in zip(times, cols, strict=True)
+        )
+
+    files = {
+        "Metadata.csv": "version,device name,recording time,platform\n2,iPhone 11,2021-06-12_12-15-30,ios\n",
+        "Accelerometer.csv": "time,z,y,x\n" + plain(motion, [[0.3, 0.2, 0.1]] * n),
+        "Gravity.csv": "time,z,y,x\n" + plain(motion, [[-1.0, 0.0, 0.0]] * n),
+        "Gyroscope.csv": "time,z,y,x\n" + plain(motion, [[0.03, 0.02, 0.01]] * n),
+        "Location.csv": "time,latitude,longitude,altitude,speed,bearing,horizontalAccuracy,verticalAccuracy\n"
+        + plain(tl, [[47.4049, 10.2945, 947.9, 1.2, 45.0, 5.0, 3.0]] * 3),
+    }
+    for k, v in files.items():
+        (d / k).write_text(v)
+    if as_zip:
+        z = tmp_path / f"{d.name}.zip"
+        with zipfile.ZipFile(z, "w") as zf:
+            for k, v in files.items():
+                zf.writestr(k, v)
+        return z
+    return d
+
+
+@pytest.mark.parametrize("as_zip", [False, True], ids=["folder", "zip"])
+def test_2021_export_read_and_time_zone_offset_removed(tmp_path, as_zip):
+    p = export_2021(tmp_path, 2 * 3600.0, as_zip=as_zip)
+    assert sensorlogger.sniff(p, p.read_bytes()[:4096] if p.is_file() else b"")
+    rec = read_recording(p)
+    assert rec.format == "sensorlogger"
+    acc, loc = stream(rec, "Accelerometer"), stream(rec, "Location")
+    # the clocks are one: the first fix 3.000 s after the first motion sample, exactly (whole 2 h removed)
+    assert loc.t[0] - acc.t[0] == pytest.approx(3.0, abs=1e-9)
+    assert rec.epoch_utc == pytest.approx(T2021 / 1e9)
+    # iOS, not standardised: specific force is -(linear + gravity)
+    assert [col(acc, f"acc_{a}")[0] for a in "xyz"] == pytest.approx([-0.1, -0.2, -(0.3 - 1.0)])
+    assert [col(stream(rec, "Gyroscope"), f"gyr_{a}")[0] for a in "xyz"] == pytest.approx([0.01, 0.02, 0.03])
+    line = next(w for w in rec.warnings if "stamped on a clock" in w)
+    assert "2.00 h behind" in line and "+7200.000 s" in line and "time-zone" in line
+    assert any("no seconds_elapsed" in w and "version 2" in w for w in rec.warnings)
+
+
+def test_2021_export_arbitrary_clock_offset_aligned_by_first_samples(tmp_path):
+    off = 5000.0 + 17.25  # not a whole quarter hour: aligned by the first samples
+    rec = read_recording(export_2021(tmp_path, off, gnss_delay_s=0.5))
+    acc, loc = stream(rec, "Accelerometer"), stream(rec, "Location")
+    assert loc.t[0] - acc.t[0] == pytest.approx(0.0, abs=1e-9)  # the GNSS delay (0.5 s) is not known
+    line = next(w for w in rec.warnings if "stamped on a clock" in w)
+    assert "uncertain" in line
+
+
+def test_2021_export_through_ingest(tmp_path):
+    p = export_2021(tmp_path, 3 * 3600.0, as_zip=True)
+    r = subprocess.run([str(BIN / "ingest"), str(p)], capture_output=True)
+    assert r.returncode == 0, r.stderr.decode()
+    table = sfio.table_from_bytes(r.stdout)
+    t = table.column("t").to_numpy()
+    lat = table.column("lat").to_numpy(zero_copy_only=False)
+    assert t[np.isfinite(lat)][0] == pytest.approx(3.0, abs=1e-6)  # on the motion files' clock, 3 s in
+    assert b"shifted by +10800.000 s" in r.stderr

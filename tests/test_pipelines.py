@@ -72,6 +72,18 @@ def test_sport_pipeline(tmp_path, name):
         video, _ = sfio.read_table(out / "video.parquet", kind="jumps")
         assert abs(video.column("jump_length")[0].as_py() - tmeta["jump_length"]) < 0.5
         assert "RMS of dL" in (out / "table7.txt").read_text()
+        # one definition of the take-off time error: the smoothed session's and the jumps table's agree
+        ev_jumps = subprocess.run(
+            [f"{BIN}evaluate", str(out / "jumps.parquet"), "--truth", str(FIX / name / "truth.parquet"), "-o",
+             str(out / "ev_jumps.parquet")], capture_output=True, text=True,
+        )  # fmt: skip
+        assert ev_jumps.returncode == 0, ev_jumps.stderr
+        from_jumps, _ = sfio.read_table(out / "ev_jumps.parquet", kind="summary")
+        from_session, _ = sfio.read_table(out / "evaluation.parquet", kind="summary")
+        dt = [
+            next(r["takeoff_dt"] for r in t.to_pylist() if r["phase"] == "jump 1") for t in (from_jumps, from_session)
+        ]
+        assert dt[0] == pytest.approx(dt[1], abs=1e-9) and abs(dt[0]) < 0.1, dt
     elif sport == "gates":
         assert pos < 1.0, ev
     # a second run has nothing to do: every stage is a file

@@ -120,3 +120,9 @@ def test_library_and_tool_docs_point_into_the_project():
         text = path.read_text()
         for bad in ("shared/ref", "ref/formats.md", "DESIGN.md", "papers-errata"):
             assert bad not in text, (str(path.relative_to(ROOT)), bad)
+
+
+def test_every_doc_is_listed_in_the_documentation_section():
+    section = README[README.index("## Documentation\n") : README.index("## Papers")]
+    listed = set(re.findall(r"\(docs/([a-z0-9-]+\.md)\)", section))
+    assert listed == {p.name for p in DOCS.glob("*.md")}, sorted({p.name for p in DOCS.glob("*.md")} ^ listed)

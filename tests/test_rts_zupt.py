@@ -99,7 +99,7 @@ def test_zupt_pins_the_rests_and_reports_its_residuals(runs) -> None:
     az = meta["frame"]["azimuth_deg"]
     res = {}
     for z, (est, ometa, _) in out.items():
-        t, _, e = errors(est, truth, az)
+        t, _, e = errors(est, truth, az, velocity_frame="ned")
         rest = (t < times["release"] - 0.3) | (t > times["stop"] + 0.5)
         v = np.sqrt(e["vel_n"] ** 2 + e["vel_e"] ** 2 + e["vel_d"] ** 2)
         p = np.sqrt(e["x"] ** 2 + e["y"] ** 2 + e["z"] ** 2)

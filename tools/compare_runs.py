@@ -8,6 +8,7 @@ import click
 
 from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
+from sportfusion.core.venue import read_venue
 from sportfusion.skirace.compare import compare_tables, require_trajectory
 from sportfusion.tools._cli import Tool, tool
 
@@ -51,8 +52,8 @@ def _labels(inputs: list[str | None], given: tuple[str, ...]) -> list[str]:
     "gates_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Gates table (kind gates: gate, x y z [m] in the runs' frame, or lat lon [deg] h [m]); runs without "
-    "gate events cross each gate at their closest horizontal approach.",
+    help="Gates table (kind gates: gate, x y z [m] in the runs' frame, or lat lon [deg] h [m]; a CSV or a plain "
+    "Parquet with those columns too); runs without gate events cross each gate at their closest horizontal approach.",
 )
 @click.option(
     "--label",
@@ -125,7 +126,7 @@ def main(
         tables.append((label, table, meta))
     gates = None
     if gates_path is not None:
-        gates = sfio.read_table(gates_path, kind="gates", what=f"gates file {gates_path}")
+        gates = read_venue(gates_path, "gates", what=f"gates file {gates_path}")
     summary, info, warnings = compare_tables(
         tables, gates, max_gate_distance, profile_step if profile_path is not None else None
     )

@@ -66,10 +66,10 @@ from sportfusion.tools._options import parse_floats
 @click.option(
     "--lowpass",
     "lowpass_hz",
-    default=5.0,
-    show_default=True,
+    default=None,
     type=click.FloatRange(0),
-    help="Zero-phase low-pass cut-off for the raw DMC channels [Hz]; 0: none.",
+    help="Zero-phase low-pass cut-off for the raw DMC channels [Hz]; 0: none. Default 5 Hz, left out (with a note) "
+    "on rows slower than 10 Hz.",
 )
 @click.option(
     "--coriolis", is_flag=True, help="Include the Coriolis and transport-rate terms of eq 9 (needs vx vy vz) [m/s^2]."
@@ -151,7 +151,7 @@ def main(
     g0: float | None,
     acc_weight: float,
     mag_weight: float,
-    lowpass_hz: float,
+    lowpass_hz: float | None,
     coriolis: bool,
     free_fall: float,
     no_gyro: bool,

@@ -80,7 +80,8 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
 @click.option(
     "--gnss",
     is_flag=True,
-    help="Evaluate the GNSS measurements (gnss_x/y/z [m], vel_n/e/d [m/s]) instead of the estimate columns.",
+    help="Evaluate the GNSS measurements (gnss_x/y/z [m]; vel_n/e/d [m/s], rotated into the local frame) "
+    "instead of the estimate columns.",
 )
 @click.option(
     "--max-event-dt",
@@ -108,8 +109,9 @@ def main(
 ) -> None:
     """Compare an estimate (x y z and vx vy vz in the hill frame, q0..q3 or
     roll pitch yaw, events) with the truth of a simulated session: RMS, mean and
-    maximum absolute error of position (hill frame), velocity (NED), Euler
-    angles and the attitude rotation angle, overall and per phase (in-run up to
+    maximum absolute error of position [m] and velocity [m/s] (both in the
+    session's local frame, named in the table's header), Euler angles and the
+    attitude rotation angle, overall and per phase (in-run up to
     the take-off, flight, out-run from the touch-down), like Table 6 of the
     ski-jump paper; take-off/touch-down timing errors and the jump-length error
     when both sides have a jump length. Writes a summary table (angles in rad)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.core import io as sfio
+from sportfusion.core.venue import read_venue
 from sportfusion.gates.eks import EKSParams
 from sportfusion.gates.pipeline import GateAnchorParams, gate_anchor_table
 from sportfusion.tools._cli import Tool, tool
@@ -26,7 +26,8 @@ from sportfusion.tools._cli import Tool, tool
     type=click.Path(dir_okay=False),
     default=None,
     help="Survey of the gate magnets (kind gates: gate, x y z [m] in the session's frame or lat [deg] lon [deg] "
-    "h [m], optional turn L/R). Needed.",
+    "h [m], optional turn L/R; a sportfusion table, or a CSV / plain Parquet with those columns, "
+    "docs/table-contract.md). Needed.",
 )
 @click.option(
     "--anchors-every",
@@ -146,7 +147,7 @@ def main(
     table, meta = tool.read()
     survey, smeta = (None, None)
     if gates_path:
-        survey, smeta = sfio.read_table(gates_path, kind="gates", what=f"gate survey {gates_path}")
+        survey, smeta = read_venue(gates_path, "gates", what=f"gate survey {gates_path}")
     params = GateAnchorParams(
         rate=rate,
         sigma_first=sigma_first,

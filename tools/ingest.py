@@ -62,6 +62,13 @@ from sportfusion.tools._options import check_number, parse_pairs
     metavar="YYYY-MM-DD",
     help="NMEA: UTC date for a log without RMC/ZDA dates (times of day only).",
 )
+@click.option(
+    "--base",
+    default=None,
+    metavar="LAT,LON,H",
+    help="RTKLIB e/n/u-baseline solutions: the base station's WGS84 latitude, longitude [deg] and ellipsoidal "
+    "height [m] (default: the solution header's 'ref pos' line).",
+)
 @click.option("--no-time", is_flag=True, help="GPX: accept points without times; t becomes the point index [s].")
 @click.option(
     "--map",
@@ -142,6 +149,7 @@ def main(
     offsets: tuple[str, ...],
     geoid_offset: float | None,
     date: str | None,
+    base: str | None,
     no_time: bool,
     mapping: tuple[str, ...],
     time_unit: str,
@@ -180,6 +188,7 @@ def main(
         hold_map=hold_map,
         map_up=map_up,
         rate=rate,
+        base=_base(base),
     )
     offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
     segs = parse_pairs(segment_pairs, "--segment")
@@ -242,6 +251,19 @@ def _per_input(
         for i in hits:
             own.setdefault(i, {}).update(parse_pairs([value[m.end() :]], option))
     return own, parse_pairs(common, option)
+
+
+def _base(text: str | None) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        lat, lon, h = (float(v) for v in text.split(","))
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r} is not LAT,LON,H (degrees, degrees, metres)", param_hint="--base") from exc
+    check_number(lat, -90, 90, "deg", "--base", text)
+    check_number(lon, -180, 180, "deg", "--base", text)
+    check_number(h, -1000, 10000, "m", "--base", text)
+    return lat, lon, h
 
 
 def _seconds(text: str) -> float:

@@ -27,7 +27,8 @@ from sportfusion.tools._cli import Tool, tool
     "holds_path",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Hold map (kind holds: route, hold, x, y, z [m]; start holds, up axis and field in its metadata). Needed.",
+    help="Hold map (kind holds: route, hold, x, y, z [m]; start holds, up axis and field in its metadata), or a "
+    "CSV / plain Parquet with those columns and start (docs/table-contract.md). Needed.",
 )
 @click.option("--route", default=None, help="Route climbed [name]; default: the session's climbing.route.")
 @click.option(

@@ -111,7 +111,7 @@ def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_
 def main() -> None:
     """PNG, SVG or PDF figures (format from the -o suffix: .png, .svg, .pdf):
     `hill` a hill profile, `track` a session over it, `speed` the trajectory
-    coloured by speed with a zoom on the flight,
+    as a line coloured by speed with a zoom on the flight,
     `series` estimates against time, `errors` estimate minus truth, `mag`
     measured vs estimated magnetometer, `spline` spline vs raw GNSS, `gates`
     an alpine course with its anchors, `body` the athlete's posture at the

@@ -11,6 +11,7 @@ import click
 
 from sportfusion.core import io as sfio
 from sportfusion.core import schema
+from sportfusion.core.venue import read_venue
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import hill_options, image_options, load_hill_option
 
@@ -44,7 +45,7 @@ def _truth_option(required: bool = False):  # noqa: ANN202 - click decorator
 def speed_cmd(
     tool: Tool, hill: str | None, hill_set: tuple[str, ...], output: str, title: str | None, dpi: float
 ) -> None:
-    """Side view of the estimated trajectory x, -z [m] coloured by speed [m/s] over the hill profile
+    """Side view of the estimated trajectory x, -z [m] as a line coloured by speed [m/s] over the hill profile
     (skijump Figure 7), and a zoom on the flight (take-off to touch-down events, own colour scale);
     events annotated with their speed. Hill: --hill, else the session's hill."""
     from sportfusion.skijump.plots import profile_from_meta, speed_figure
@@ -139,7 +140,7 @@ def spline_cmd(tool: Tool, truth_path: str | None, output: str, title: str | Non
     "gates_path",
     type=click.Path(exists=True, dir_okay=False),
     required=True,
-    help="Gate survey (kind gates: gate, x, y, z [m] in the session's local frame).",
+    help="Gate survey (kind gates: gate, x, y, z [m] in the session's local frame; also a CSV or plain Parquet).",
 )
 @image_options
 def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: float) -> None:
@@ -150,7 +151,7 @@ def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: 
 
     table, _ = tool.read()
     schema.require_columns(table, ["x", "y"], "a session with a trajectory (gate-anchor output)")
-    gates, _ = sfio.read_table(gates_path, kind="gates")
+    gates, _ = read_venue(gates_path, "gates", what=f"gate survey {gates_path}")
     _write(tool, gates_figure(table, gates, title or ""), output, dpi)
 
 
@@ -215,7 +216,8 @@ def body_cmd(
     "holds_path",
     type=click.Path(exists=True, dir_okay=False),
     required=True,
-    help="Hold map (kind holds: route, hold, x, y, z [m]; up axis and start holds in its metadata).",
+    help="Hold map (kind holds: route, hold, x, y, z [m]; up axis and start holds in its metadata; also a CSV or "
+    "plain Parquet).",
 )
 @_truth_option()
 @image_options
@@ -227,7 +229,7 @@ def holds_cmd(tool: Tool, holds_path: str, truth_path: str | None, output: str, 
 
     table, _ = tool.read()
     schema.require_columns(table, ["x", "y", "z"], "a session with a hand path (pf-holds output)")
-    holds, hmeta = sfio.read_table(holds_path, kind="holds")
+    holds, hmeta = read_venue(holds_path, "holds", what=f"hold map {holds_path}")
     truth = sfio.read_table(truth_path, kind="truth")[0] if truth_path else None
     _write(tool, holds_figure(table, holds, hmeta, truth, title or ""), output, dpi)
 

@@ -12,7 +12,13 @@ from sportfusion.tools._cli import Tool, tool
 
 
 def _side(path: str | None, kind: str) -> tuple | None:
-    return sfio.read_table(path, kind=kind) if path else None
+    if not path:
+        return None
+    if kind in ("gates", "holds"):  # a venue: also a CSV or a plain Parquet file (docs/table-contract.md)
+        from sportfusion.core.venue import read_venue
+
+        return read_venue(path, kind)
+    return sfio.read_table(path, kind=kind)
 
 
 @tool(
@@ -56,13 +62,14 @@ def _side(path: str | None, kind: str) -> tuple | None:
     "--gates",
     "gates_path",
     type=click.Path(exists=True, dir_okay=False),
-    help="Gate survey (gates table: gate, x, y, z [m]) for the course figure (gates).",
+    help="Gate survey (gates table: gate, x, y, z [m]; also a CSV or plain Parquet) for the course figure (gates).",
 )
 @click.option(
     "--holds",
     "holds_path",
     type=click.Path(exists=True, dir_okay=False),
-    help="Hold map (holds table: route, hold, x, y, z [m]) for the wall figure (climbing).",
+    help="Hold map (holds table: route, hold, x, y, z [m]; also a CSV or plain Parquet) for the wall figure "
+    "(climbing).",
 )
 def main(
     tool: Tool,
@@ -74,10 +81,13 @@ def main(
     gates_path: str | None,
     holds_path: str | None,
 ) -> None:
-    """Write one HTML page a coach can open on a phone or print: the headline figures (jump length,
-    take-off speed and flight time; run time, distance and speeds, per-turn speeds; holds reached) with
-    units, the trajectory over the venue, the time series with their 1-sigma bands, the accuracy against
-    a truth when --evaluation is given, and the provenance folded at the end.  Given a batch summary
+    """Write one HTML page a coach can open on a phone or print: the headline figures with their units
+    (jump length [m], take-off speed [m/s, km/h], flight time [s], max height [m]; moving time [s] and
+    moving mean speed [m/s] (speed >= 1 m/s), distance [m], max speed, gates matched of the survey and
+    per-turn speeds with the reason a turn is missing; holds reached, hold certainty [%]), the trajectory
+    over the venue, the time series with their 1-sigma bands, the accuracy against a truth when
+    --evaluation is given (angles in degrees), folded: the analyst's part (sensor biases, full errors,
+    provenance) and "Reading the report" (docs/reading-the-report.md).  Given a batch summary
     (python -m sportfusion.batch, make batch), it writes the batch's index page instead: one row per
     session, failed sessions with their error line, links to OUT/<name>/report.html where they exist."""
     table, meta = tool.read(kind=("session", "summary"))
@@ -102,7 +112,7 @@ def main(
             sport=sport,
             title=title,
             jumps=jumps[0] if jumps else None,
-            evaluation=evaluation[0] if evaluation else None,
+            evaluation=evaluation,
             gates=gates[0] if gates else None,
             holds=holds,
         )

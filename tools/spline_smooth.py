@@ -98,7 +98,8 @@ def _segment(text: str) -> tuple[float, float, float]:
     default=10.0,
     show_default=True,
     type=click.FloatRange(0, min_open=True),
-    help="Longest GNSS data gap bridged [s]; rows in longer gaps stay null.",
+    help="Longest GNSS data gap bridged [s]; rows in longer gaps stay null, and a gap longer than this and 5 "
+    "median fix intervals splits the track (a spline per segment, distance carried over the gap).",
 )
 @click.option(
     "--robust/--no-robust",
@@ -129,10 +130,13 @@ def main(
     Adds x y z, vx vy vz, ax ay az (the spline and its derivatives, eq 7),
     speed, distance (along the spline from the first epoch), course (azimuth of
     the tangent from north [rad]), std_x std_y std_z when sigmas are given
-    (input noise propagated through the smoother), and spline_filled (True
-    where the value bridges a GNSS data gap). Every row inside the GNSS span
-    gets values, IMU rows included; rows outside it stay null. With --robust
-    (default) phone/watch position jumps are weighted down (gnss_weight)."""
+    (input noise propagated through the smoother), spline_filled (True
+    where the value bridges a GNSS data gap) and spline_segment. Every row inside the GNSS span
+    gets values, IMU rows included; rows outside it stay null. A gap longer than
+    --max-gap and 5 fix intervals splits the track: no spline across it, its rows
+    null, distance carried over (one line names each gap). With --robust
+    (default) phone/watch position jumps and stalls are weighted down (gnss_weight);
+    on consumer tracks speed and distance take the height smoothed over 10 s."""
     table, meta = tool.read()
     result = smooth_session(
         table,

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -177,8 +176,11 @@ def validate(table: pa.Table, meta: dict[str, Any]) -> HoldMap:
 
 
 def read_holds(path: str) -> HoldMap:
-    """Read and validate a hold map file (a ``holds`` table)."""
-    table, meta = sfio.read_table(path, kind="holds", what=f"hold map {path}")
+    """Read and validate a hold map file: a ``holds`` table, a plain Parquet file or a CSV with the columns
+    route, hold, x, y, z [m] and start (:func:`sportfusion.core.venue.read_venue`)."""
+    from sportfusion.core.venue import read_venue
+
+    table, meta = read_venue(path, "holds", what=f"hold map {path}")
     return validate(table, meta)
 
 

@@ -16,7 +16,25 @@ import pyarrow as pa
 
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.plotlayout import describe_figure, fit_titles, fs, layout, legend_outside, narrow_layout
 from sportfusion.core.stats import median
+
+__all__ = [
+    "FORMATS",
+    "describe_figure",
+    "errors_figure",
+    "fit_titles",
+    "events_of",
+    "figure_format",
+    "fs",
+    "legend_outside",
+    "narrow_layout",
+    "place_labels",
+    "render",
+    "series_figure",
+    "stretch_factor",
+    "unwrap_deg",
+]
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -33,6 +51,9 @@ def _new_figure(width: float, height: float) -> Figure:
         from matplotlib.figure import Figure
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise InputError("plotting needs matplotlib; install the extra: pip install 'sportfusion[plot]'") from exc
+    narrow = layout().width
+    if narrow is not None and narrow < width:  # a phone's page: the layout's width, the height kept
+        width = narrow
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
@@ -48,6 +69,7 @@ def figure_format(path: str | Path) -> str:
 
 def render(fig: Figure, fmt: str, dpi: float = 150.0) -> bytes:
     """The figure as PNG, SVG or PDF bytes (``dpi`` [dots per inch] sets a PNG's pixel size)."""
+    fit_titles(fig)
     buf = io.BytesIO()
     metadata = {"png": {"Software": "sportfusion"}, "pdf": {"Creator": "sportfusion"}}.get(fmt)
     fig.savefig(buf, format=fmt, dpi=dpi, metadata=metadata)
@@ -97,6 +119,7 @@ def events_of(table: pa.Table) -> list[tuple[float, str]]:
 def _mark_events(ax: Axes, events: list[tuple[float, str]], label: bool = False, fontsize: float = 7.0) -> None:
     """Dashed vertical lines at the events; with ``label``, their names above the axes, in as many rows as it
     takes for no two labels to overlap."""
+    fontsize = fs(fontsize)
     for t, _ in events:
         ax.axvline(t, color="0.4", lw=0.8, ls="--", zorder=1)
     if not label or not events:
@@ -150,12 +173,6 @@ def finish_time_panels(
     fig.suptitle(title or default_title.format("; dashed lines: events" if events else ""))
 
 
-def legend_outside(ax: Axes, **kwargs: Any) -> Any:
-    """The axes' legend to its right, outside the plotted area, so that it never covers data."""
-    kwargs = {"fontsize": 8, **kwargs}
-    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
-
-
 def stretch_factor(long_span: float, short_span: float, min_share: float = 0.25) -> int:
     """How much to stretch the short axis of a plan view of a long thin track [1].
 
@@ -183,7 +200,8 @@ def place_labels(
     """Label points [data] so that no two labels overlap and as few ``avoid`` points [data] as can be are
     covered.
 
-    Each label tries offsets around its point (eight directions, 5 to 40 pt away, a thin leader line beyond
+    Each label (``fontsize`` [pt], at least the layout's minimum) tries offsets around its point (eight
+    directions, 5 to 40 pt away, a thin leader line beyond
     the nearest ring) and keeps the first best: no overlap with a placed label or a labelled point's marker
     (a square ``marker_pt`` [pt] either side), inside the axes, nearer its own point than any other
     labelled point, fewest covered ``avoid`` points. The figure is laid out first (one draw); labels kept
@@ -193,6 +211,7 @@ def place_labels(
     from matplotlib.text import Text
     from matplotlib.transforms import Bbox, IdentityTransform
 
+    fontsize = fs(fontsize)
     fig = ax.figure
     fig.canvas.draw()  # lays the figure out: labels inside the axes leave that layout as it is
     renderer = fig.canvas.get_renderer()
@@ -272,13 +291,24 @@ def _band(ax: Axes, t: np.ndarray, y: np.ndarray, s: np.ndarray | None, colour: 
         ax.fill_between(t[m], y[m] - s[m], y[m] + s[m], color=colour, alpha=0.2, lw=0)
 
 
-def series_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width: float = 12.0) -> Figure:
+#: The panels :func:`series_figure` can draw, in order.
+SERIES_PANELS = ("position", "velocity", "attitude", "gyro bias", "acc bias")
+
+
+def series_figure(
+    table: pa.Table,
+    meta: dict[str, Any],
+    title: str = "",
+    width: float = 12.0,
+    panels: tuple[str, ...] = SERIES_PANELS,
+) -> Figure:
     """Position, velocity, attitude (and sensor biases when estimated) against time with the GNSS
     measurements and the events (the paper's Figures 8-11).
 
-    Rows drawn: position ``x y z`` [m] with ``gnss_x..`` dots; velocity ``vx vy vz`` [m/s]; attitude
-    ``roll pitch yaw`` [deg]; gyroscope and accelerometer biases ``bias_gyr_*`` [deg/s] and
-    ``bias_acc_*`` [m/s^2]. Each estimate with its ``std_`` 1-sigma band; missing rows are skipped.
+    Rows drawn (those of ``panels`` whose columns the table has): ``position`` ``x y z`` [m] with
+    ``gnss_x..`` dots; ``velocity`` ``vx vy vz`` [m/s]; ``attitude`` ``roll pitch yaw`` [deg]; ``gyro bias``
+    ``bias_gyr_*`` [deg/s] and ``acc bias`` ``bias_acc_*`` [m/s^2]. Each estimate with its ``std_`` 1-sigma
+    band.
 
     Raises
     ------
@@ -287,21 +317,23 @@ def series_figure(table: pa.Table, meta: dict[str, Any], title: str = "", width:
     """
     t = schema.floats(table, "t")
     rows: list[tuple[str, list[str], list[str | None], float, str]] = []  # label, columns, GNSS columns, scale, kind
-    if any(n in table.column_names for n in ("x", "gnss_x")):
+    want = set(panels)
+    if "position" in want and any(n in table.column_names for n in ("x", "gnss_x")):
         rows.append(("position [m]", list(_AX), [f"gnss_{a}" for a in _AX], 1.0, "pos"))
-    if "vx" in table.column_names:
+    if "velocity" in want and "vx" in table.column_names:
         rows.append(("velocity [m/s]", [f"v{a}" for a in _AX], [None] * 3, 1.0, "vel"))
-    if "roll" in table.column_names:
+    if "attitude" in want and "roll" in table.column_names:
         rows.append(("attitude [deg]", ["roll", "pitch", "yaw"], [None] * 3, 180 / np.pi, "att"))
-    if "bias_gyr_x" in table.column_names:
+    if "gyro bias" in want and "bias_gyr_x" in table.column_names:
         rows.append(("gyro bias [deg/s]", [f"bias_gyr_{a}" for a in _AX], [None] * 3, 180 / np.pi, "bg"))
-    if "bias_acc_x" in table.column_names:
+    if "acc bias" in want and "bias_acc_x" in table.column_names:
         rows.append(("acc. bias [m/s^2]", [f"bias_acc_{a}" for a in _AX], [None] * 3, 1.0, "ba"))
     if not rows:
         raise InputError(
-            "missing columns: the series figure needs estimates (x.., vx.., roll..) or gnss_x..; run gps2hill or a smoother first"
+            f"missing columns: the series figure ({', '.join(panels)}) needs estimates (x.., vx.., roll.., "
+            "bias_gyr_.., bias_acc_..) or gnss_x..; run gps2hill or a smoother first"
         )
-    fig = _new_figure(width, 2.2 * len(rows) + 1.0)
+    fig = _new_figure(width, (2.2 + (0.6 if layout().legend == "below" else 0.0)) * len(rows) + 1.0)
     axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True))
     events = events_of(table)
     for ax, (label, names, meas, scale, kind) in zip(axes, rows, strict=True):

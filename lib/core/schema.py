@@ -137,6 +137,9 @@ register(
 )
 register("spline_filled", BOOL, "", "position bridged by the spline across a GNSS data gap (no measured position near)")
 register(
+    "spline_segment", I32, "1", "track segment of the spline (0, 1, ...: split at GNSS gaps the data cannot bridge)"
+)
+register(
     "quest_loss", F64, "1", "Wahba loss of the DMC attitude at its optimum, 1 - lambda_max (0 = consistent vectors)"
 )
 register("dmc_singular", BOOL, "", "DMC attitude unreliable: specific force near free fall or parallel to the field")

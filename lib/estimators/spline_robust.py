@@ -26,9 +26,11 @@ The standardised residual is ``z_i = |e_i| / s_i`` (3-D norm over
 ``sqrt(d)``) with ``s_i`` the largest of the fix's stated sigma, the
 robust spread (1.4826 MAD) of the residuals and ``floor`` (1 m), so a
 receiver with optimistic sigmas is not punished for its ordinary noise and
-an RTK track's decimetre float offsets and gap edges are left to eq 6.  The weight is Tukey's
-biweight ``(1 - (z/c)^2)^2`` for ``z < c`` (``c = 4.685``: 95 % efficiency on
-Gaussian noise), else ``floor`` (never 0, the spline needs positive weights).
+an RTK track's decimetre float offsets and gap edges are left to eq 6.  The weight is exactly 1
+for ``z <= 2.5`` (a fix consistent with its neighbours: on clean data the fit is the plain
+weighted smoothing spline, so ``--lambda gcv`` is Woltring's GCVSPL), then a biweight of the
+excess, ``(1 - ((z - 2.5)/(c - 2.5))^2)^2`` for ``z < c`` (``c = 4.685``), else ``floor``
+(never 0, the spline needs positive weights).
 Velocity and speed screens only ever lower a weight.
 """
 
@@ -40,12 +42,19 @@ from sportfusion.core.stats import median
 from sportfusion.estimators.spline import _minv_diag, penalty_from_lambda, smoothing_spline
 
 TUKEY_C = 4.685
+#: standardised residuals up to this are consistent with the neighbours: weight exactly 1
+FLAT = 2.5
 
 
-def tukey(z: np.ndarray, c: float = TUKEY_C, floor: float = 1e-6) -> np.ndarray:
-    """Tukey's biweight of standardised residuals ``z`` (>= ``floor``)."""
-    u = np.abs(np.asarray(z, float)) / c
-    return np.maximum(np.where(u < 1, (1 - u * u) ** 2, 0.0), floor)
+def tukey(z: np.ndarray, c: float = TUKEY_C, floor: float = 1e-6, flat: float = FLAT) -> np.ndarray:
+    """Flat-topped biweight of standardised residuals ``z`` (>= ``floor``).
+
+    Exactly 1 for ``|z| <= flat`` (a fix consistent with its neighbours keeps its weight: the spline of
+    clean data is the plain weighted smoothing spline, to the last bit), then Tukey's biweight of the
+    excess, ``(1 - ((|z| - flat) / (c - flat))^2)^2``, reaching ``floor`` at ``|z| >= c``.
+    """
+    e = np.maximum(np.abs(np.asarray(z, float)) - flat, 0.0) / (c - flat)
+    return np.maximum(np.where(e < 1, (1 - e * e) ** 2, 0.0), floor)
 
 
 def _scale(e: np.ndarray, sigma: np.ndarray | None, floor: float) -> np.ndarray:
@@ -160,6 +169,63 @@ def speed_spikes(
     return bad
 
 
+def step_speed(t: np.ndarray, y: np.ndarray, window: int = 31) -> np.ndarray:
+    """Speed over ground [m/s] estimated from the fixes alone: the running median (over ``window`` epochs)
+    of the horizontal step speeds ``|y_{i+1} - y_i| / dt``, one value per epoch.
+
+    A run of bad fixes shorter than half the window (a plateau of jumped fixes, a stall) moves the median
+    little, so the out-and-back and catch-up screens get a speed where the receiver reports none.
+    """
+    n = t.size
+    if n < 3:
+        return np.full(n, np.nan)
+    v = np.linalg.norm(np.diff(y[:, :2], axis=0), axis=1) / np.diff(t)
+    v = np.r_[v[0], v]  # epoch i gets the step that ends at it (the first its following step)
+    half = max(window // 2, 1)
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    pad = np.r_[np.full(half, np.nan), v, np.full(half, np.nan)]
+    return np.nanmedian(sliding_window_view(pad, 2 * half + 1), axis=1)
+
+
+def stall_fixes(t: np.ndarray, y: np.ndarray, speed: np.ndarray, sigma: np.ndarray | None) -> np.ndarray:
+    """Boolean (n,): fixes frozen during a stall that a catch-up step then ends.
+
+    A watch or phone that loses its fix keeps reporting the last position for some seconds while the
+    athlete moves on, then jumps to the true position (60 m in one second after a 13 s stall).  A
+    *catch-up* is a step longer than the speed allows (as in :func:`speed_spikes`); the fixes before it
+    whose own steps repeated the position (under 5 cm) or moved less than a third of what the speed says
+    (``speed dt > 1 m``) are the frozen ones, flagged when the speed integrated over them and the step is
+    at least half the step (the step catches up what the stall missed; a stall that ends in a stop is
+    caught too).  A real stop, or a stop without a catch-up step, is left alone.
+    """
+    n = t.size
+    bad = np.zeros(n, bool)
+    if n < 3:
+        return bad
+    d = np.linalg.norm(np.diff(y[:, :2], axis=0), axis=1)
+    dt = np.diff(t)
+    sp = np.asarray(speed, float)
+    sp = np.where((sp >= 0) & (sp < 150.0), sp, np.nan)
+    sg = np.full(n, np.nan) if sigma is None else np.asarray(sigma, float).reshape(n, -1)[:, 0]
+    sg = np.where(np.isfinite(sg) & (sg > 0), sg, np.nanmedian(sg) if np.isfinite(sg).any() else 3.0)
+    vmax = np.fmax(sp[1:], sp[:-1])
+    allowed = vmax * dt * 1.2 + 1.0 * dt + 4.0 * np.sqrt(2.0) * np.fmax(sg[1:], sg[:-1])
+    expect = np.fmax(sp[1:], sp[:-1]) * dt
+    # a frozen step: the position repeated (a stall repeats the last fix), or far less than the speed says
+    frozen = (d < 0.05) | (np.isfinite(expect) & (expect > 1.0) & (d < expect / 3.0))
+    travel = np.nan_to_num(0.5 * (sp[1:] + sp[:-1])) * dt
+    for a in np.flatnonzero(np.isfinite(vmax) & (d > allowed)):
+        i = a
+        while i > 0 and frozen[i - 1]:
+            i -= 1
+        # the catch-up step must be what the speed says the frozen stretch travelled (a stall that ends in a
+        # stop is caught too; a jump with no frozen stretch before it is left to the other screens)
+        if i < a and travel[i : a + 1].sum() > 0.5 * d[a]:
+            bad[i + 1 : a + 1] = True
+    return bad
+
+
 def robust_weights(
     t: np.ndarray,
     y: np.ndarray,
@@ -197,8 +263,13 @@ def robust_weights(
         return base
     if vel is not None and np.isfinite(vel).all(axis=1).sum() >= 4:
         base = np.minimum(base, tukey(_z(velocity_residuals(t, y, vel, window), sigma, floor), c))
-    if speed is not None and np.isfinite(speed).any():
-        base[speed_spikes(t, y, speed, sigma)] = 1e-6
+    sp = None if speed is None or not np.isfinite(speed).any() else np.asarray(speed, float)
+    if sp is None and vel is not None and np.isfinite(vel[:, :2]).all(axis=1).sum() >= 4:
+        sp = np.linalg.norm(vel[:, :2], axis=1)
+    if sp is None:  # no receiver speed: the fixes' own running-median speed (plateaus, catch-up steps)
+        sp = step_speed(t, y)
+    base[speed_spikes(t, y, sp, sigma)] = 1e-6
+    base[stall_fixes(t, y, sp, sigma)] = 1e-6
     loo = np.ones(n)
     for _ in range(iterations):
         e = loo_residuals(t, y, w * (base * loo)[:, None], lam)

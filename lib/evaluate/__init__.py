@@ -1,7 +1,8 @@
 """Estimates against the truth or a reference (cross-cutting: any sport's session).
 
 * :mod:`~sportfusion.evaluate.truth` -- errors against a simulated truth by phase, in the layout of the
-  skijump paper's Table 6 (position [m], velocity [m/s], attitude [deg]), event timing [s];
+  skijump paper's Table 6 (position [m] and velocity [m/s] in the session's one local frame, attitude
+  [deg]), event timing [s];
 * :mod:`~sportfusion.evaluate.jump_length` -- jump lengths against the video reference (Table 7) [m];
 * :mod:`~sportfusion.evaluate.jumps` -- a jumps table (jump-metrics) against the truth: length, take-off
   speed, timing errors.
@@ -26,9 +27,11 @@ from sportfusion.evaluate.truth import (
     Evaluation,
     check_estimate,
     errors,
+    estimate_event_times,
     evaluate,
     event_errors,
     format_text,
+    frame_label,
     match_rows,
     phases,
     summary_meta,
@@ -52,11 +55,13 @@ __all__ = [
     "compare_jump_lengths",
     "compare_jumps",
     "errors",
+    "estimate_event_times",
     "evaluate",
     "event_errors",
     "format_jump_lengths",
     "format_jumps",
     "format_text",
+    "frame_label",
     "jump_length_meta",
     "jump_length_table",
     "jumps_meta",

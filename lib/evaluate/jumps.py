@@ -1,7 +1,9 @@
 """A ``jumps`` table (jump-metrics) against the simulated truth: per-jump figure errors.
 
 Errors are estimate minus truth: take-off and touch-down timing [s], jump length [m], take-off speed
-[m/s] and flight time [s].  Estimated and true jumps are paired by their take-off times (the nearest
+[m/s] and flight time [s].  The timing errors follow the one definition of
+:mod:`~sportfusion.evaluate.truth` (the detector's exact time against the simulator's), so ``evaluate
+jumps.parquet`` and ``evaluate smoothed.parquet`` give the same take-off error for the same jump.  Estimated and true jumps are paired by their take-off times (the nearest
 within ``max_event_dt``); a jump without a partner keeps NaN errors.  Jumps are numbered from 1, as
 jump-metrics numbers them.
 """
@@ -52,10 +54,13 @@ def true_jumps(truth_meta: dict[str, Any]) -> list[dict[str, float]]:
     list of dict with ``t_takeoff``, ``t_touchdown``, ``flight_time`` [s], ``jump_length`` [m] and
     ``takeoff_speed`` [m/s] (NaN when the truth does not give it).
     """
+    from sportfusion.evaluate.truth import truth_events
+
     sk = truth_meta.get("skijump") or {}
     times, figures = sk.get("times") or {}, sk.get("figures") or {}
+    events = truth_events(None, truth_meta)  # the one definition of the true event times
     if "takeoff" in times and "touchdown" in times:
-        a, b = float(times["takeoff"]), float(times["touchdown"])
+        a, b = (next(t for n, t in events if n == name) for name in ("takeoff", "touchdown"))
         return [
             {
                 "t_takeoff": a,
@@ -65,9 +70,8 @@ def true_jumps(truth_meta: dict[str, Any]) -> list[dict[str, float]]:
                 "takeoff_speed": float(figures.get("takeoff_speed", np.nan)),
             }
         ]
-    events = truth_meta.get("events") or []
-    tos = sorted(float(e["t"]) for e in events if isinstance(e, dict) and e.get("name") == "takeoff")
-    tds = sorted(float(e["t"]) for e in events if isinstance(e, dict) and e.get("name") == "touchdown")
+    tos = sorted(t for n, t in events if n == "takeoff")
+    tds = sorted(t for n, t in events if n == "touchdown")
     lengths = truth_meta.get("jump_length")
     lengths = [] if lengths is None else list(np.atleast_1d(np.asarray(lengths, dtype=float)))
     out = []

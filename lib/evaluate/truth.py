@@ -1,13 +1,15 @@
 """Estimate versus truth: error statistics in the layout of the ski-jumping paper's Table 6.
 
-Errors are estimate minus truth (skijump eqs 52-53, 57):
+Errors are estimate minus truth (skijump eqs 52-53, 57), all in one frame, the session's local (hill,
+course, wall) frame that its metadata declares (:func:`frame_label` names it in every table header):
 
-* position ``x y z`` in the session's local (hill) frame [m];
-* velocity in NED ``vel_n vel_e vel_d`` [m/s] (the paper's ``v_O``): the
-  estimate's ``vx vy vz`` are in the local frame and are rotated by the frame
-  azimuth of the metadata;
+* position ``x y z`` [m];
+* velocity ``vx vy vz`` [m/s] in the same frame (the paper's Table 6 gives the velocity in NED, ``v_O``,
+  beside a hill-frame position; ``errors(..., velocity_frame="ned")`` returns ``vel_n vel_e vel_d`` for
+  that comparison); GNSS velocities (NED, ``--gnss``) are rotated into the local frame by its azimuth;
 * Euler angles ``roll pitch yaw`` (z-y-x, eqs 54-56) [rad], wrapped to
-  (-pi, pi];
+  (-pi, pi]; their errors are the same whether the yaw is counted from north or from the frame's x
+  axis (the two differ by the constant azimuth);
 * ``rot_angle``: the rotation angle between the estimated and the true
   attitude quaternion [rad], free of the Euler singularity at pitch +-90 deg.
 
@@ -21,7 +23,12 @@ and the next take-off is split at its midpoint (out-run, then in-run).
 Event timing errors pair every true ``takeoff``/``touchdown`` with the nearest
 estimated event of the same name within ``max_event_dt``; the jump-length error
 is reported when both sides carry a jump length (metadata key ``jump_length``,
-or a ``jump_length`` column).
+or a ``jump_length`` column).  The times compared are the same whichever table
+is evaluated (a smoothed session here, a ``jump-metrics`` table in
+:mod:`~sportfusion.evaluate.jumps`): the estimate's event at the detector's exact
+time (:func:`estimate_event_times`: the metadata's time where it lies within half
+a sample of the event row, as ``jump-metrics`` takes it), the truth's at the
+simulator's exact time (:func:`truth_events`: its metadata before its rows).
 """
 
 from __future__ import annotations
@@ -40,9 +47,9 @@ VARIABLES: tuple[tuple[str, str, str], ...] = (
     ("x", "m", "dx [m]"),
     ("y", "m", "dy [m]"),
     ("z", "m", "dz [m]"),
-    ("vel_n", "m/s", "dv_n [m/s]"),
-    ("vel_e", "m/s", "dv_e [m/s]"),
-    ("vel_d", "m/s", "dv_d [m/s]"),
+    ("vx", "m/s", "dvx [m/s]"),
+    ("vy", "m/s", "dvy [m/s]"),
+    ("vz", "m/s", "dvz [m/s]"),
     ("roll", "rad", "droll [deg]"),
     ("pitch", "rad", "dpitch [deg]"),
     ("yaw", "rad", "dyaw [deg]"),
@@ -89,6 +96,19 @@ class Evaluation:
     false_events: dict[str, int] = field(default_factory=dict)
     variables: list[str] = field(default_factory=list)
     phases: tuple[str, ...] = PHASES
+    frame: str = "local frame"
+
+
+def frame_label(meta: dict[str, Any]) -> str:
+    """The frame every error of a table is in, in words: ``"hill frame (x along azimuth 312.6 deg, y right, z
+    down)"``; ``"local frame"`` when the metadata declares none."""
+    frame = meta.get("frame") or {}
+    if not frame:
+        return "local frame"
+    name = str(frame.get("name") or "local")
+    az = frame.get("azimuth_deg")
+    axes = str(frame.get("axes") or "x forward, y right, z down")
+    return f"{name} frame ({axes}; x at azimuth {float(az):.1f} deg)" if az is not None else f"{name} frame ({axes})"
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
@@ -169,7 +189,7 @@ def check_estimate(est: pa.Table, gnss: bool = False) -> None:
 
 
 def errors(
-    est: pa.Table, truth: pa.Table, azimuth_deg: float, gnss: bool = False
+    est: pa.Table, truth: pa.Table, azimuth_deg: float, gnss: bool = False, velocity_frame: str = "local"
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
     """Per-row errors (estimate minus truth) on the rows both tables share.
 
@@ -179,10 +199,13 @@ def errors(
         Estimate (``x y z``, ``vx vy vz``, ``q0..q3`` or ``roll pitch yaw``) and
         truth (``true_`` columns) with column ``t`` [s].
     azimuth_deg : float
-        Azimuth of the local frame's x axis [deg], for the NED velocity.
+        Azimuth of the local frame's x axis [deg], between NED and the local frame.
     gnss : bool
         Evaluate the GNSS measurements instead of an estimate: ``gnss_x
         gnss_y gnss_z`` [m] and ``vel_n vel_e vel_d`` [m/s].
+    velocity_frame : ``"local"`` or ``"ned"``
+        The velocity errors as ``vx vy vz`` in the local frame (the position's frame: one frame per
+        table), or as ``vel_n vel_e vel_d`` in NED (the ski-jump paper's Table 6, ``v_O``).
 
     Returns
     -------
@@ -208,25 +231,33 @@ def errors(
         e, tr = _col(est, col), _col(truth, f"true_{name}")
         if e is not None and tr is not None:
             err[name] = e[i_est] - tr[i_true]
+    if velocity_frame not in ("local", "ned"):
+        raise ValueError(f"velocity_frame {velocity_frame!r}; expected 'local' or 'ned'")
     v_true = _truth_velocity_ned(truth, azimuth_deg)
-    if gnss:
-        # GNSS velocity is NED already; each component stands alone (an NMEA log has no vel_d)
-        v_est = None
-        for k, name in enumerate(("vel_n", "vel_e", "vel_d")):
-            e = _col(est, name)
-            if e is not None and v_true is not None:
-                err[name] = e[i_est] - v_true[i_true, k]
-    else:
-        names = ("vx", "vy", "vz")
-        v_est = (
-            rotations.local_to_ned(schema.float_columns(est, names), azimuth_deg)
-            if all(n in est.column_names for n in names)
-            else None
-        )
-    if v_est is not None and v_true is not None:
-        d = v_est[i_est] - v_true[i_true]
-        for k, name in enumerate(("vel_n", "vel_e", "vel_d")):
-            err[name] = d[:, k]
+    ned_names, local_names = ("vel_n", "vel_e", "vel_d"), ("vx", "vy", "vz")
+    if gnss and v_true is not None:
+        # GNSS velocity is NED; each component stands alone (an NMEA log has no vel_d): the horizontal pair
+        # rotates into the local frame, the vertical is the same in both
+        d = {n: _col(est, n) for n in ned_names}
+        d = {n: None if v is None else v[i_est] - v_true[i_true, k] for k, (n, v) in enumerate(d.items())}
+        if velocity_frame == "ned":
+            err.update({n: v for n, v in d.items() if v is not None})
+        else:
+            if d["vel_n"] is not None and d["vel_e"] is not None:
+                hz = rotations.ned_to_local(
+                    np.column_stack([d["vel_n"], d["vel_e"], np.zeros_like(d["vel_n"])]), azimuth_deg
+                )
+                err["vx"], err["vy"] = hz[:, 0], hz[:, 1]
+            if d["vel_d"] is not None:
+                err["vz"] = d["vel_d"]
+    elif not gnss and v_true is not None and all(n in est.column_names for n in local_names):
+        v_est = schema.float_columns(est, local_names)[i_est]
+        if velocity_frame == "ned":
+            dv, names = rotations.local_to_ned(v_est, azimuth_deg) - v_true[i_true], ned_names
+        else:
+            dv, names = v_est - rotations.ned_to_local(v_true[i_true], azimuth_deg), local_names
+        for k, name in enumerate(names):
+            err[name] = dv[:, k]
     q_est, q_true = (None, None) if gnss else (_quat(est, ""), _quat(truth, "true_"))
     if q_est is not None and q_true is not None:
         qe, qt = q_est[i_est], q_true[i_true]
@@ -248,9 +279,41 @@ def errors(
     return t_true[i_true], i_est, err
 
 
-def truth_events(truth: pa.Table, meta: dict[str, Any]) -> list[tuple[str, float]]:
-    """(name, t) of the truth's events, from its ``event`` column or else its metadata ``events``."""
-    return table_events(truth) if "event" in truth.column_names else _meta_events(meta)
+def truth_events(truth: pa.Table | None, meta: dict[str, Any]) -> list[tuple[str, float]]:
+    """(name, t [s]) of the truth's events at the simulator's exact instants: its metadata's
+    ``skijump.times`` (take-off, touch-down), else its metadata ``events``, else its ``event`` column's rows
+    (a row sits on a sample; the metadata's time is the event's own)."""
+    times = (meta.get("skijump") or {}).get("times") or {}
+    if "takeoff" in times and "touchdown" in times:
+        return sorted(((n, float(times[n])) for n in EVENT_NAMES), key=lambda e: e[1])
+    found = _meta_events(meta)
+    if found or truth is None:
+        return found
+    return table_events(truth)
+
+
+def estimate_event_times(table: pa.Table, meta: dict[str, Any]) -> list[tuple[str, float]]:
+    """(name, t [s]) of an estimate's events: the ``event`` column's rows, each at the detector's exact time
+    where the metadata's ``events`` list holds one within half a sample step of the row (what
+    ``jump-metrics`` reports as ``t_takeoff``), else at the row's time.  One definition of an event's time
+    for every table ``evaluate`` compares."""
+    rows = table_events(table)
+    exact: dict[str, list[float]] = {}
+    for e in meta.get("events") or []:
+        for j in (e.get("jumps") or []) if isinstance(e, dict) else []:
+            for name in EVENT_NAMES:
+                if isinstance(j, dict) and isinstance(j.get(name), int | float):
+                    exact.setdefault(name, []).append(float(j[name]))
+    if not rows or not exact:
+        return rows
+    t = schema.floats(table, "t")
+    tol = 0.5 * float(np.median(np.diff(t))) + 1e-9 if t.size > 1 else 1e-9
+    out = []
+    for name, tr in rows:
+        cand = np.asarray(exact.get(name, []))
+        k = int(np.argmin(np.abs(cand - tr))) if cand.size else -1
+        out.append((name, float(cand[k]) if k >= 0 and abs(cand[k] - tr) <= tol else tr))
+    return out
 
 
 def _meta_events(meta: dict[str, Any]) -> list[tuple[str, float]]:
@@ -380,7 +443,7 @@ def evaluate(
         per = {name: _stats(e[sel]) for name, e in err.items()}
         stats[ph] = {s: {name: per[name][s] for name in err} for s in STATS}
         stats[ph]["n"] = int(sel.sum())
-    jumps, false = event_errors(tev, table_events(est), max_event_dt)
+    jumps, false = event_errors(tev, estimate_event_times(est, est_meta), max_event_dt)
     l_true, l_est = _lengths(truth_meta, truth), _lengths(est_meta, est)
     n_jumps = max(len(jumps), len(l_true))
     while len(jumps) < n_jumps:
@@ -388,7 +451,14 @@ def evaluate(
     for k in range(n_jumps):
         if k < len(l_true) and k < len(l_est):
             jumps[k]["jump_length_error"] = l_est[k] - l_true[k]
-    return Evaluation(stats=stats, jumps=jumps, false_events=false, variables=list(err), phases=used)
+    return Evaluation(
+        stats=stats,
+        jumps=jumps,
+        false_events=false,
+        variables=list(err),
+        phases=used,
+        frame=frame_label(est_meta if est_meta.get("frame") else truth_meta),
+    )
 
 
 def summary_table(ev: Evaluation) -> pa.Table:
@@ -454,15 +524,24 @@ def summary_meta(ev: Evaluation) -> dict[str, Any]:
             "false_events": ev.false_events,
             "variables": ev.variables,
             "units": {name: unit for name, unit, _ in VARIABLES if name in ev.variables},
+            "frame": ev.frame,
         }
     )
 
 
 def format_text(ev: Evaluation, title: str = "") -> str:
-    """A readable table of the evaluation (angles in degrees), Table 6 layout."""
+    """A readable table of the evaluation (angles in degrees), Table 6 layout; its header names the one
+    frame of every position and velocity error."""
     cols = [(n, u, lab) for n, u, lab in VARIABLES if n in ev.variables]
     head = f"{'phase':<8}{'stat':<6}{'samples':>8}" + "".join(f"{lab:>13}" for _, _, lab in cols)
     lines = [title] if title else []
+    what = []
+    if any(n in ev.variables for n in ("x", "y", "z", "vx", "vy", "vz")):
+        what.append(f"position and velocity errors in the {ev.frame}")
+    if any(n in ev.variables for n in ANGLES):
+        what.append("attitude errors (the same in any frame) in deg")
+    if what:
+        lines.append("; ".join(what))
     lines += [head, "-" * len(head)]
     for ph in ev.phases:
         for s in STATS:

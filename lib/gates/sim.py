@@ -298,7 +298,9 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     pelvis = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 1.3) * skiing
     sway = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 3.7)
     yaw = np.deg2rad(cfg.azimuth_deg) + heading + pelvis
-    slope_along = np.arctan2(vs[:, 2], np.maximum(sp, 1e-3)) * moving
+    # the trunk follows the slope as the skier gets going (weighted by the smooth skiing ramp, not switched
+    # on when the speed passes a threshold: no step in the pitch)
+    slope_along = np.arctan2(vs[:, 2], np.maximum(sp, 1e-3)) * skiing
     pitch = np.deg2rad(15.0) * skiing - 0.5 * slope_along + sway
     roll = lean + 0.5 * sway
     q = quat_from_euler(roll, pitch, yaw)

@@ -83,6 +83,9 @@ class Options:
         naming each sensor's segment; default: the one in the folder.
     segments : dict
         A folder of Xsens exports: sensor id (or file name) -> segment name, instead of a mapping file.
+    base : (lat [deg], lon [deg], h [m]) or None
+        RTKLIB e/n/u-baseline solutions: the base station's WGS84 position (ellipsoidal height);
+        default: the solution header's ``ref pos`` line.
     """
 
     geoid_offset: float | None = None
@@ -97,6 +100,7 @@ class Options:
     rate: float | None = None
     mapping: str | None = None
     segments: dict[str, str] = field(default_factory=dict)
+    base: tuple[float, float, float] | None = None
 
 
 @dataclass

@@ -21,7 +21,11 @@ Time
     fractional_system_timestamp``; with several, that offset is interpolated
     linearly in system time, following the device clock's drift).  Without a correlation the recording
     keeps the device clock (no absolute time) and a warning says so.
-    ``t`` counts from the first UTC second of the file.
+    ``t`` counts from the first UTC second of the file.  A record clock that
+    jumps by a day or more (a watch whose clock was set mid-file: records 20
+    days apart while the session's ``total_elapsed_time`` is an hour) is
+    reported in one warning and kept as written, never silently re-based;
+    ``spline-smooth`` splits the track there.
 
 Columns (units)
     ``record`` messages (one ``fit_record`` stream): ``lat``/``lon`` [deg]
@@ -246,6 +250,49 @@ def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Op
     return {"t": ts, **cols}, warnings
 
 
+#: a step of the record clock longer than this [s] is a clock jump worth a line (a day)
+CLOCK_JUMP = 86400.0
+
+
+def _duration(d: float) -> str:
+    return f"{d / 86400:.1f} d" if abs(d) >= 86400 else f"{d / 3600:.1f} h"
+
+
+def _clock_jumps(t: np.ndarray, messages: list[tuple[str, dict[str, Any]]]) -> str | None:
+    """One line when the record clock jumps by a day or more (or steps back), naming the jump and the file's
+    own elapsed time (``session`` ``total_elapsed_time``); None otherwise.  The times are kept as written:
+    a watch whose clock was reset mid-file is reported, not silently re-based."""
+    if t.size < 2:
+        return None
+    d = np.diff(t)
+    big = np.flatnonzero(np.abs(d) >= CLOCK_JUMP)
+    if big.size == 0:
+        return None
+    elapsed = [_num(f.get("total_elapsed_time")) for n, f in messages if n == "session"]
+    elapsed = [e for e in elapsed if math.isfinite(e)]
+    span = float(np.nanmax(t) - np.nanmin(t))
+    first = int(big[0])
+    what = (
+        f"jumps {'forward' if d[first] > 0 else 'back'} by {_duration(float(abs(d[first])))} after record {first} "
+        f"(t = {t[first]:.0f} s on the file's clock)"
+    )
+    if big.size > 1:
+        what += f", and {big.size - 1} more time(s)"
+    if elapsed:
+        total = sum(elapsed)
+        own = (
+            f"while the file's own elapsed time (session total_elapsed_time) is {_duration(total)}"
+            if total < span - 0.5 * CLOCK_JUMP
+            else f"and the file's own elapsed time ({_duration(total)}) spans it too"
+        )
+    else:
+        own = "(the file has no session elapsed time to compare)"
+    return (
+        f"the record clock {what} {own}: the device's clock was set mid-file; the timeline is kept as written "
+        "(spline-smooth splits the track at the jump, no distance is counted across it)"
+    )
+
+
 def _calibrations(messages: list[tuple[str, dict[str, Any]]]) -> dict[int, list[tuple[int, dict[str, Any]]]]:
     """sensor_type -> [(message index, calibration fields)]."""
     cal: dict[int, list[tuple[int, dict[str, Any]]]] = defaultdict(list)
@@ -333,6 +380,9 @@ def read(path: Path, opts: Options) -> Recording:
     warnings += w
     if rec:
         parts["fit_record"] = rec
+        jump = _clock_jumps(rec["t"], messages)
+        if jump:
+            warnings.append(jump)
     cal = _calibrations(messages)
     for kind in _SENSORS:
         before = clock.uncorrected

@@ -23,7 +23,14 @@ Columns (units)
     ``gnss_speed`` [m/s] and ``gnss_course`` [deg] from ``<speed>``/
     ``<course>`` (GPX 1.0) or an extension element of that name (Garmin
     TrackPointExtension and the like), and then ``vel_n``/``vel_e`` [m/s]
-    = speed (cos, sin)(course).  ``gnss_hdop`` from ``<hdop>``,
+    = speed (cos, sin)(course); a negative speed or course (-1: unknown) is
+    null.  ``gnss_sigma_h`` [m] from an accuracy extension (local name
+    ``accuracy``, ``hAcc``, ``horizontalAccuracy``, ...: the radius of the
+    68 % circle, / 1.5096 as for the phone formats; a negative one marks an
+    invalid fix, whose position is nulled) and ``gnss_sigma_v`` from
+    ``vAcc``/``verticalAccuracy`` (negative: the heights are nulled); the
+    spline weights each fix by them.  ``gnss_hdop`` from ``<hdop>`` (99.99
+    and above: "no value", null),
     ``gnss_sats`` from ``<sat>``, ``gnss_fix`` from ``<fix>`` mapped onto
     the NMEA GGA codes: none 0, 2d 1, 3d 1, dgps 2, pps 3.
 
@@ -59,6 +66,14 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 
+#: Extension elements (local names, any namespace, case-free) holding a fix's stated accuracy [m]: the radius
+#: of the 68 % circle (Android ``getAccuracy``, iOS ``horizontalAccuracy``) and the vertical 68 % bound.
+_EXT_HACC = ("accuracy", "hacc", "horizontalaccuracy", "horizontal_accuracy", "haccuracy", "hor_acc", "precision")
+_EXT_VACC = ("vacc", "verticalaccuracy", "vertical_accuracy", "vaccuracy", "ver_acc")
+#: Radius of the 68 % circle of a circular Gaussian, in per-axis sigmas: sqrt(-2 ln 0.32).
+ACCURACY_68_TO_SIGMA = math.sqrt(-2.0 * math.log(0.32))
+#: An HDOP of this or more is a "no value" marker (99.99)
+HDOP_UNKNOWN = 99.0
 #: GPX ``<fix>`` -> NMEA GGA quality code.
 FIX_TO_QUALITY = {"none": 0, "2d": 1, "3d": 1, "3": 1, "dgps": 2, "pps": 3}
 
@@ -139,9 +154,34 @@ def read(path: Path, opts: Options) -> Recording:
     if (np.isfinite(speed) & np.isfinite(course)).any():
         cols["vel_n"] = speed * np.cos(np.radians(course))
         cols["vel_e"] = speed * np.sin(np.radians(course))
+    speed = np.where(speed >= 0, speed, np.nan)  # -1: unknown (iOS loggers)
+    course = np.where((course >= 0) & (course < 360), course, np.nan)
+    if "gnss_speed" in cols:
+        cols["gnss_speed"] = speed
+    if "gnss_course" in cols:
+        cols["gnss_course"] = course
+    if "vel_n" in cols:
+        cols["vel_n"] = speed * np.cos(np.radians(course))
+        cols["vel_e"] = speed * np.sin(np.radians(course))
     hdop = np.array([_first(p.horizontal_dilution) for p in points], dtype=np.float64)
+    hdop = np.where((hdop > 0) & (hdop < HDOP_UNKNOWN), hdop, np.nan)
     if np.isfinite(hdop).any():
         cols["gnss_hdop"] = hdop
+    hacc = np.array([_first(*(_extension_value(p, k) for k in _EXT_HACC)) for p in points], dtype=np.float64)
+    vacc = np.array([_first(*(_extension_value(p, k) for k in _EXT_VACC)) for p in points], dtype=np.float64)
+    if np.isfinite(hacc).any():
+        bad = hacc < 0  # Core Location: a negative accuracy marks an invalid fix
+        if bad.any():
+            lat[bad] = lon[bad] = np.nan
+            warnings.append(
+                f"{int(bad.sum())} point(s) with a negative horizontal accuracy (invalid fix): position null"
+            )
+        cols["gnss_sigma_h"] = np.where(hacc > 0, hacc, np.nan) / ACCURACY_68_TO_SIGMA
+    if np.isfinite(vacc).any():
+        for k in ("h", "h_msl"):
+            if k in cols:
+                cols[k] = np.where(vacc < 0, np.nan, np.asarray(cols[k], float))
+        cols["gnss_sigma_v"] = np.where(vacc > 0, vacc, np.nan)
     sats = [p.satellites for p in points]
     if any(s is not None for s in sats):
         cols["gnss_sats"] = pa.array(sats, type=pa.int16())

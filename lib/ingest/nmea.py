@@ -12,11 +12,13 @@ reader does not use (GSA, GSV, TXT, proprietary ``$P...`` at any rate, AIS
 recording's metadata and cost no parsing.
 
 Sniffing
-    By content, not by the first line: among the non-comment lines of the
-    first 16 KiB, at least one (three when there are that many lines) must
-    be a checksummed sentence, and they must be at least a quarter of the
-    lines (so a CSV or XML file never passes, and a log with a comment
-    header, interleaved binary or a logger's prefix does).  A file whose
+    By the sentences found, not by the first line: among the non-comment
+    lines of the first 16 KiB, at least one (three when there are that many
+    lines) must be a checksummed sentence, and they must be at least a
+    quarter of the lines that are text (lines of binary bytes without a
+    sentence do not count), so a CSV or XML file never passes, and a log
+    with a comment header, a logger's prefix, or a u-blox ``.ubx`` log with
+    NMEA interleaved in its binary messages does.  A file whose
     lines are mostly sentence-shaped (``$GPGGA,...*hh``) with failing
     checksums is claimed too, so the reader can say that the checksums fail.
 
@@ -49,7 +51,8 @@ Columns (units)
     same codes (N 0, A 1, D 2, P 3, R 4, F 5, E 6, M 7, S 8; for GNS the best
     of its per-constellation characters); an RMC without a mode indicator
     gives 0 for status V and 1 (plain GPS, the weakest valid code) for
-    status A.  ``gnss_sats``, ``gnss_hdop`` from GGA/GNS.
+    status A.  ``gnss_sats``, ``gnss_hdop`` from GGA/GNS (99.99, the
+    receivers' "no value" marker, and anything from 99 up: null).
     ``gnss_sigma_n/e/v`` [m] from GST (latitude, longitude, altitude error
     1-sigma), ``gnss_sigma_h`` = sqrt((sigma_n^2 + sigma_e^2) / 2).
     ``gnss_speed`` [m/s] (knots x 1852/3600) and ``gnss_course`` [deg true]
@@ -83,6 +86,8 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.session import Stream
 from sportfusion.ingest import Options, Recording
 
+#: An HDOP of this or more is the receivers' "unknown" marker (u-blox writes 99.99 without a fix): null.
+HDOP_UNKNOWN = 99.0
 #: Metres per second in one knot.
 KNOT = 1852.0 / 3600.0
 USED = ("GGA", "GNS", "RMC", "VTG", "GST", "ZDA")
@@ -150,8 +155,13 @@ def sniff(path: Path, head: bytes) -> bool:
     lines = [ln for ln in lines if not ln.startswith("#")]
     if not lines:
         return False
-    valid = sum(bool(find_sentences(ln)) for ln in lines)
-    if valid >= min(3, len(lines)) and valid >= 0.25 * len(lines):
+    found = [bool(find_sentences(ln)) for ln in lines]
+    valid = sum(found)
+    # lines of binary bytes with no sentence (a u-blox .ubx log with NMEA interleaved in its binary messages)
+    # are not counted against the share: the file is sniffed by the sentences it holds
+    binary = sum(1 for ln, ok in zip(lines, found, strict=True) if not ok and _BINARY.search(ln))
+    text_lines = len(lines) - binary
+    if valid >= min(3, len(lines)) and valid >= 0.25 * text_lines:
         return True
     # sentence-shaped lines whose checksums all fail: still NMEA, so the reader can say what is wrong
     shaped = sum(bool(_SHAPED.search(ln)) for ln in lines)
@@ -268,6 +278,7 @@ class _Log:
     last_tod: float | None = None
     lines: int = 0
     bad_checksum: int = 0
+    bad_types: dict[str, int] = field(default_factory=dict)  # sentence type -> lines failing their checksum
     unparsable: int = 0
     untimed: int = 0
     sentences: dict[str, int] = field(default_factory=dict)
@@ -313,8 +324,11 @@ class _Log:
         self.lines += 1
         found = find_sentences(line)
         if not found:
-            if _ADDRESS.search(line):  # looks like a sentence: its checksum is bad or missing
+            m = _ADDRESS.search(line)
+            if m:  # looks like a sentence: its checksum is bad or missing
                 self.bad_checksum += 1
+                kind = m.group(0)[-4:-1]
+                self.bad_types[kind] = self.bad_types.get(kind, 0) + 1
             elif _BINARY.search(line):
                 self.binary += 1
             else:
@@ -335,6 +349,7 @@ class _Log:
             msg = pynmea2.parse(line, check=True)
         except pynmea2.ChecksumError:
             self.bad_checksum += 1
+            self.bad_types[kind] = self.bad_types.get(kind, 0) + 1
             return
         except pynmea2.SentenceTypeError:  # valid line of a type pynmea2 does not know
             self.ignored += 1
@@ -493,8 +508,14 @@ def read(path: Path, opts: Options) -> Recording:
     if days is None:
         first = log.order[0]
         hms = f"{first.sec // 3600:02d}:{first.sec // 60 % 60:02d}:{first.sec % 60:02d}"
+        dated = {k: v for k, v in log.bad_types.items() if k in ("RMC", "ZDA")}
+        why = (
+            " and ".join(f"{v} {k} sentence(s)" for k, v in sorted(dated.items())) + " failed their checksum"
+            if dated
+            else "no RMC or ZDA sentence"
+        )
         raise InputError(
-            f"{path}: the log has times of day but no date (no RMC or ZDA sentence; first fix at {hms} UTC); "
+            f"{path}: the log has times of day but no date ({why}; first fix at {hms} UTC); "
             "give --date YYYY-MM-DD, the UTC date of the first fix"
         )
     whole = (days - _UNIX_DAY0) * 86400 + sec
@@ -529,7 +550,7 @@ def _columns(epochs: list[_Epoch]) -> tuple[dict[str, object], int]:
     for i, e in enumerate(epochs):
         for src, dst in (("lat", "lat"), ("lon", "lon"), ("hdop", "gnss_hdop"), ("course", "gnss_course")):
             v = e.get(src)
-            if v is not None:
+            if v is not None and not (src == "hdop" and v >= HDOP_UNKNOWN):
                 out[dst][i] = v
         alt_sep = e.get("alt_sep")
         if alt_sep is not None:

@@ -23,7 +23,12 @@ Headers, matched by meaning (case, spacing and unit spelling free)
     the 68 % circle; a circular Gaussian with per-axis sigma s has that radius
     at s sqrt(-2 ln 0.32) = 1.5096 s); ``Vertical Accuracy`` ->
     ``gnss_sigma_v`` (a 68 % one-dimensional bound, ~1 sigma); ``Satellites``
-    -> ``gnss_sats``.  Units in the headers are converted (deg/s, mT, mbar,
+    -> ``gnss_sats``.  Invalid markers are nulls: a negative speed or course
+    (iOS writes -1 for unknown, also in custom experiments' ``GPS.csv``), a
+    course outside [0, 360) deg, an accuracy of 0 (not reported); a negative
+    horizontal accuracy (iOS: the fix is invalid) nulls the latitude and
+    longitude, a negative vertical accuracy the heights; one warning counts
+    them.  Units in the headers are converted (deg/s, mT, mbar,
     km/h, ...).  Derived columns (``Absolute ...``, ``Distance``) are not
     read.  ``Linear Acceleration x`` (without g) is not specific force: such a
     set is skipped with a warning.  A set with no known column is skipped
@@ -304,6 +309,7 @@ def _set_stream(name: str, data: bytes, warnings: list[str]) -> Stream | None:
                 warnings.append(f"{name}: {header!r} read as metres (phyphox labels this accuracy with a wrong unit)")
                 unit = "m"
             v = v * unit_factor(unit or "m", "m", f"{name}: {header}")
+            cols["_acc_h" if col == "gnss_sigma_h" else "_acc_v"] = v.copy()  # the sign marks invalid fixes
             if col == "gnss_sigma_h":
                 v = v / ACCURACY_68_TO_SIGMA
             v = np.where(v > 0, v, np.nan)  # 0 means "not reported"
@@ -312,6 +318,7 @@ def _set_stream(name: str, data: bytes, warnings: list[str]) -> Stream | None:
         else:
             v = v * unit_factor(unit or target, target, f"{name}: {header}")
         cols[col] = v
+    _null_invalid_location(cols, name, warnings)
     if "gnss_speed" in cols and "gnss_course" in cols:
         speed, course = np.asarray(cols["gnss_speed"]), np.radians(np.asarray(cols["gnss_course"]))
         course = np.where(speed == 0.0, np.where(np.isfinite(course), course, 0.0), course)
@@ -319,6 +326,42 @@ def _set_stream(name: str, data: bytes, warnings: list[str]) -> Stream | None:
         cols["vel_e"] = speed * np.sin(course)
     stem = PurePosixPath(name).stem
     return Stream(stem, t, cols)
+
+
+def _null_invalid_location(cols: dict[str, object], name: str, warnings: list[str]) -> None:
+    """Null the platforms' invalid markers in a Location set (in place), counted in one warning.
+
+    iOS (Core Location, which phyphox-ios writes through) reports -1 for an unknown speed and course and a
+    negative accuracy for an invalid fix: a negative horizontal accuracy means latitude and longitude are
+    invalid, a negative vertical accuracy that the altitude is.  Android writes 0 for an accuracy it does not
+    have.  A speed below 0, a course outside [0, 360) deg, and a non-positive accuracy are no values.
+    """
+    nulled: list[str] = []
+
+    def drop(col: str, bad: np.ndarray) -> None:
+        if col in cols and bad.any():
+            v = np.array(cols[col], dtype=float)
+            n = int(np.count_nonzero(bad & np.isfinite(v)))
+            v[bad] = np.nan
+            cols[col] = v
+            if n:
+                nulled.append(f"{n} {col}")
+
+    if "gnss_speed" in cols:
+        sp = np.asarray(cols["gnss_speed"], float)
+        drop("gnss_speed", sp < 0)
+    if "gnss_course" in cols:
+        c = np.asarray(cols["gnss_course"], float)
+        drop("gnss_course", (c < 0) | (c >= 360))
+    for acc, what in (("_acc_h", ("lat", "lon")), ("_acc_v", ("h", "h_msl"))):
+        if acc in cols:
+            bad = np.asarray(cols.pop(acc), float) < 0
+            for col in what:
+                drop(col, bad)
+    if nulled:
+        warnings.append(
+            f"{name}: invalid markers (negative speed, course or accuracy: unknown) read as null: {', '.join(nulled)}"
+        )
 
 
 def read(path: Path, opts: Options) -> Recording:

@@ -15,11 +15,22 @@ Header
       sdyz sdzx``) and optionally velocity ``vn ve vu sdvn sdve sdvu ...``
       (xyz: ``vx vy vz sdvx sdvy sdvz sdvxy sdvyz sdvzx``).
 
+    ``e-baseline(m) n-baseline(m) u-baseline(m)`` (relative to the base:
+    RTKLIB's ``out-solformat=enu``), with ``sde sdn sdu sden sdnu sdue``.
+    The base position comes from ``Options.base`` (``--base LAT,LON,H``) or
+    the header's ``% ref pos : lat lon height`` line (degrees, or
+    degree-minute-second; ellipsoidal height); without either the file is
+    refused in one line naming ``--base``.  The rover is the base's ECEF
+    position plus the baseline rotated back from the base's east-north-up
+    (the inverse of RTKLIB's ``ecef2enu``), then geodetic (pyproj); the
+    sigmas are taken in the base's east-north-up (the same axes as the
+    rover's within a few km).
+
     The comment ``% (lat/lon/height=WGS84/ellipsoidal,...)`` or
     ``.../geodetic`` (or any ``%`` line saying ``ellipsoidal``/``geodetic``)
     tells the height: ellipsoidal (RTKLIB's default) -> ``h``; geodetic
     (above the geoid) -> ``h_msl`` with ``h`` null and a warning.
-    ``e/n/u-baseline`` solutions and the Tokyo datum are refused.
+    The Tokyo datum is refused.
 
 Time
     ``t`` is UTC.  GPST -> UTC subtracts the GPS-UTC leap seconds valid at
@@ -155,10 +166,6 @@ def _layout(path: Path, header: list[str]) -> _Layout:
         posf = next((_POSITION[t] for t in tokens if t in _POSITION), None)
         if posf is None:
             continue
-        if posf == "enu":
-            raise InputError(
-                f"{path}: e/n/u-baseline solutions are not supported; expected llh or xyz output (out-solformat=llh|xyz)"
-            )
         if not tokens or tokens[0] not in TIME_SYSTEMS:
             raise InputError(
                 f"{path}: the column header starts with {tokens[0] if tokens else 'nothing'!r}; "
@@ -175,7 +182,9 @@ def _layout(path: Path, header: list[str]) -> _Layout:
             names.append(name)
             index.setdefault(name, k)
             k += width
-        needed = ("latitude", "longitude", "height") if posf != "xyz" else ("x-ecef", "y-ecef", "z-ecef")
+        needed = {"xyz": ("x-ecef", "y-ecef", "z-ecef"), "enu": ("e-baseline", "n-baseline", "u-baseline")}.get(
+            posf, ("latitude", "longitude", "height")
+        )
         missing = [n for n in (*needed, "q") if n not in index]
         if missing:
             raise InputError(
@@ -360,7 +369,7 @@ def read(path: Path, opts: Options) -> Recording:
     lines = text.lstrip("\ufeff").splitlines()
     header = [ln.strip() for ln in lines if ln.strip().startswith("%")]
     lay = _layout(path, header)
-    height_kind = _height_kind(path, header) if lay.posf != "xyz" else "ellipsoidal"
+    height_kind = _height_kind(path, header) if lay.posf in ("llh", "dms") else "ellipsoidal"
     numeric = [n for n in lay.names if n != "time"]
     tokens: list[list[str]] = []
     total = 0
@@ -415,8 +424,14 @@ def read(path: Path, opts: Options) -> Recording:
     t = (w - epoch).astype(np.float64) + frac
 
     cols: dict[str, object] = {}
+    base = None
     if lay.posf == "xyz":
         lat, lon, h = ecef_to_llh(col["x-ecef"], col["y-ecef"], col["z-ecef"])
+        cols.update(lat=lat, lon=lon, h=h)
+    elif lay.posf == "enu":
+        base = _base(path, header, opts.base, warnings)
+        enu = np.column_stack([col["e-baseline"], col["n-baseline"], col["u-baseline"]])
+        lat, lon, h = enu_to_llh(enu, *base)
         cols.update(lat=lat, lon=lon, h=h)
     else:
         lat, lon = col["latitude"], col["longitude"]
@@ -442,6 +457,7 @@ def read(path: Path, opts: Options) -> Recording:
         cols["gnss_ratio"] = col["ratio"]
 
     meta: dict[str, object] = {
+        **({"base": {"lat": base[0], "lon": base[1], "h": base[2]}} if base is not None else {}),
         "time_system": lay.time_system,
         "layout": lay.posf,
         "height": height_kind,
@@ -451,6 +467,60 @@ def read(path: Path, opts: Options) -> Recording:
     if prog:
         meta["program"] = prog
     return Recording(str(path), "rtklib", [Stream("rtklib", t, cols)], float(epoch), meta, warnings)
+
+
+_LLH_TO_ECEF = "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84"
+
+
+def enu_to_llh(enu: np.ndarray, lat0: float, lon0: float, h0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RTKLIB e/n/u baselines [m] from a base at (lat0, lon0 [deg], h0 [m] ellipsoidal) -> WGS84 lat, lon, h.
+
+    RTKLIB writes ``ecef2enu(base, rover - base)``: the rover's ECEF offset rotated into the base's local
+    east-north-up.  The inverse rotates back (the rotation's transpose) and adds the base's ECEF position
+    (pyproj ``cart``), then converts to geodetic.
+    """
+    x0, y0, z0 = Transformer.from_pipeline(_LLH_TO_ECEF).transform(lon0, lat0, h0)
+    r = enu_rotation(np.array([lat0]), np.array([lon0]))[0]  # rows e, n, u
+    d = np.asarray(enu, float) @ r
+    return ecef_to_llh(x0 + d[:, 0], y0 + d[:, 1], z0 + d[:, 2])
+
+
+def _base(
+    path: Path, header: list[str], given: tuple[float, float, float] | None, warnings: list[str]
+) -> tuple[float, float, float]:
+    """The base position (lat, lon [deg], h [m]): ``--base`` or the header's ``ref pos`` line."""
+    ref = None
+    for line in header:
+        body = line.lstrip("%").strip()
+        if body.startswith("ref pos") and ":" in body:
+            try:
+                v = [float(x) for x in body.split(":", 1)[1].replace(",", " ").split()]
+            except ValueError:
+                continue
+            if len(v) == 3:
+                ref = (v[0], v[1], v[2])
+            elif len(v) == 7:  # d m s d m s h
+                sgn = [-1.0 if x < 0 else 1.0 for x in (v[0], v[3])]
+                ref = (
+                    sgn[0] * (abs(v[0]) + v[1] / 60 + v[2] / 3600),
+                    sgn[1] * (abs(v[3]) + v[4] / 60 + v[5] / 3600),
+                    v[6],
+                )
+    if given is not None:
+        if ref is not None and (
+            abs(ref[0] - given[0]) > 1e-7 or abs(ref[1] - given[1]) > 1e-7 or abs(ref[2] - given[2]) > 1e-3
+        ):
+            warnings.append(
+                f"--base {given[0]:.9f},{given[1]:.9f},{given[2]:.4f} used instead of the header's ref pos "
+                f"{ref[0]:.9f},{ref[1]:.9f},{ref[2]:.4f}"
+            )
+        return given
+    if ref is None:
+        raise InputError(
+            f"{path}: an e/n/u-baseline solution needs its base position, and the header has no 'ref pos' line; "
+            "give --base LAT,LON,H (the base's WGS84 latitude, longitude [deg] and ellipsoidal height [m])"
+        )
+    return ref
 
 
 def _sigmas(col: dict[str, np.ndarray], posf: str, lat: np.ndarray, lon: np.ndarray, cols: dict[str, object]) -> None:
@@ -486,6 +556,9 @@ def _sigmas(col: dict[str, np.ndarray], posf: str, lat: np.ndarray, lon: np.ndar
     for k in ("sdne", "sdeu", "sdun"):
         if k in col:
             cols[f"gnss_{k}"] = col[k]
+    for src, k in (("sden", "sdne"), ("sdue", "sdeu"), ("sdnu", "sdun")):  # e/n/u-baseline names (same values)
+        if posf == "enu" and src in col:
+            cols[f"gnss_{k}"] = col[src]
     if all(k in col for k in ("vn", "ve", "vu")):
         cols.update(vel_n=col["vn"], vel_e=col["ve"], vel_d=-col["vu"])
     for src, dst in (("sdvn", "std_vel_n"), ("sdve", "std_vel_e"), ("sdvu", "std_vel_d")):

@@ -18,6 +18,20 @@ Time
     values) are dropped, the first kept, and counted in a warning.  A file without ``time``
     falls back to ``seconds_elapsed`` without an absolute clock (warning).
 
+Early exports (2021, ``Metadata.csv`` version 2)
+    Motion files are ``time,z,y,x`` without ``seconds_elapsed``: read from
+    ``time`` alone (sniffed as Sensor Logger when ``Metadata.csv`` names a
+    version and platform or device, beside files named like its sensors).
+    A ``time`` column in seconds, milliseconds or microseconds (told by its
+    magnitude: the unit that puts it in the years 2000-2100) is scaled to
+    nanoseconds, with a warning.  On iOS the motion files and
+    ``Location.csv`` were stamped on clocks hours apart: every file starts
+    within seconds of the start button, so a file whose first time is more
+    than 10 min from ``Location.csv``'s (else from the clock most files
+    share) is shifted onto it by the difference of the first times, rounded
+    to whole quarter hours when within 90 s of one (a time-zone error); one
+    warning names the files, the shift and how it was found.
+
 Specific force (``acc_x/y/z``, m/s^2, device axes x right, y up along the
 screen, z out of the screen)
     ``Accelerometer.csv`` is acceleration *without* gravity on both
@@ -39,7 +53,9 @@ Location
     ``gnss_speed`` and ``bearing`` -> ``gnss_course`` (negative: invalid ->
     null), ``vel_n``/``vel_e`` from the two; ``horizontalAccuracy`` (radius of
     the 68 % circle) -> ``gnss_sigma_h`` = accuracy / 1.5096 as for phyphox;
-    ``verticalAccuracy`` -> ``gnss_sigma_v`` (negative or zero: null).
+    ``verticalAccuracy`` -> ``gnss_sigma_v`` (negative or zero: null).  A
+    negative horizontal accuracy (iOS: the fix is invalid) nulls latitude and
+    longitude, a negative vertical accuracy the heights.
 
 ``Barometer.csv`` ``pressure`` [mbar] -> ``pressure`` [Pa].  Other files
 (uncalibrated sensors, orientation, compass, watch, battery, ...) are named
@@ -73,27 +89,58 @@ def _header(data: bytes) -> list[str]:
     return [c.strip().strip('"').lower() for c in line.split(",")]
 
 
+#: value columns of the sensor files read (a 2021 export's motion files are ``time,z,y,x`` alone)
+_VALUE_COLUMNS = {"x", "y", "z", "pressure", "relativealtitude", "latitude", "longitude", "altitude", "speed",
+                  "bearing", "horizontalaccuracy", "verticalaccuracy", "speedaccuracy", "bearingaccuracy",
+                  "altitudeabovemeansealevel"}  # fmt: skip
+
+
 def _is_sensor_file(data: bytes) -> bool:
     cells = _header(data)
     return len(cells) >= 2 and cells[0] == "time" and cells[1] == "seconds_elapsed"
 
 
+def _is_old_sensor_file(name: str, data: bytes) -> bool:
+    """A sensor file of a 2021 export: named like a sensor, ``time`` first, then only value columns."""
+    cells = _header(data)
+    return (
+        PurePosixPath(name).stem.lower() in SENSORS
+        and len(cells) >= 2
+        and cells[0] == "time"
+        and all(c in _VALUE_COLUMNS or c == "seconds_elapsed" for c in cells[1:])
+    )
+
+
+def _is_metadata(data: bytes) -> bool:
+    cells = _header(data)
+    return "version" in cells and ("platform" in cells or "device name" in cells)
+
+
+def _export_like(files: list[tuple[str, bytes]]) -> bool:
+    """A folder's or ZIP's CSVs (name, first bytes): a sensor file, or Metadata.csv beside 2021 sensor files."""
+    if any(_is_sensor_file(d) for _, d in files):
+        return True
+    meta = any(PurePosixPath(n).stem.lower() == "metadata" and _is_metadata(d) for n, d in files)
+    return meta and any(_is_old_sensor_file(n, d) for n, d in files)
+
+
 def sniff(path: Path, head: bytes) -> bool:
-    """A folder or ZIP holding a CSV that starts ``time,seconds_elapsed``, or one such CSV."""
+    """A folder or ZIP holding a CSV that starts ``time,seconds_elapsed`` (or a 2021 export: Metadata.csv and
+    sensor files ``time,z,y,x``), or one such CSV."""
     if path.is_dir():
+        files = []
         for p in sorted(path.glob("*.csv"))[:40]:
             try:
                 with p.open("rb") as fh:
-                    if _is_sensor_file(fh.read(1024)):
-                        return True
+                    files.append((p.name, fh.read(1024)))
             except OSError:
                 continue
-        return False
+        return _export_like(files)
     if head.startswith(b"PK\x03\x04"):
         try:
             with zipfile.ZipFile(path) as zf:
                 names = [n for n in zf.namelist() if n.lower().endswith(".csv")][:40]
-                return any(_is_sensor_file(zf.open(n).read(1024)) for n in names)
+                return _export_like([(n, zf.open(n).read(1024)) for n in names])
         except (zipfile.BadZipFile, OSError):
             return False
     return _is_sensor_file(head)
@@ -129,7 +176,7 @@ def _metadata(data: bytes) -> dict[str, str]:
     return {str(k).strip(): ("" if v is None else str(v).strip()) for k, v in row.items()}
 
 
-def _ns(table: pa.Table, what: str) -> np.ndarray | None:
+def _ns(table: pa.Table, what: str, warnings: list[str] | None = None) -> np.ndarray | None:
     """The ``time`` column as int64 nanoseconds (exact), None when the file has none."""
     if "time" not in table.column_names:
         return None
@@ -146,8 +193,77 @@ def _ns(table: pa.Table, what: str) -> np.ndarray | None:
             raise InputError(
                 f"{what}: column 'time' is not integer nanoseconds; expected e.g. 1698501144401773000"
             ) from exc
-    # a re-saved file may hold the times as floating point: nanoseconds beyond 2**53 are lost already
-    return np.round(col.cast(pa.float64()).to_numpy(zero_copy_only=False)).astype(np.int64)
+    # a re-saved file may hold the times as floating point: nanoseconds beyond 2**53 are lost already; an
+    # early export may write seconds (or ms, us) with decimals: scaled here, before anything is rounded
+    v = col.cast(pa.float64()).to_numpy(zero_copy_only=False)
+    scale = next((f for f in (1, 10**3, 10**6, 10**9) if v.size and _NS_2000 <= v[0] * f < _NS_2100), 1)
+    if scale != 1 and warnings is not None:
+        unit = {10**3: "microseconds", 10**6: "milliseconds", 10**9: "seconds"}[scale]
+        warnings.append(f"{what}: 'time' is in {unit} (by its size), not nanoseconds: scaled")
+    return np.round(v * scale).astype(np.int64)
+
+
+#: Unix times [ns] of 2000-01-01 and 2100-01-01: a ``time`` column is absolute when it falls between
+_NS_2000, _NS_2100 = 946684800 * 10**9, 4102444800 * 10**9
+
+
+def _as_ns(v: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
+    """``time`` values -> Unix nanoseconds: exports write nanoseconds; a file in us, ms or s (by magnitude:
+    the unit that puts its first time in the years 2000-2100) is scaled, with a warning."""
+    first = int(v[0]) if v.size else 0
+    if v.size == 0 or _NS_2000 <= first < _NS_2100:
+        return v
+    for unit, f in (("microseconds", 10**3), ("milliseconds", 10**6), ("seconds", 10**9)):
+        if _NS_2000 <= first * f < _NS_2100 and v.dtype.kind in "iu":
+            warnings.append(f"{what}: 'time' is in {unit} (by its size), not nanoseconds: scaled")
+            return v * f
+    return v  # not a Unix time in any unit: the clock check below says so
+
+
+def _align_clocks(ns: dict[str, np.ndarray | None], fnames: dict[str, str], warnings: list[str]) -> None:
+    """Put files stamped on different clocks on the clock of ``Location.csv`` (in place), one warning.
+
+    Early iOS exports (2021) stamped the motion files (Core Motion's clock) and ``Location.csv`` (Core
+    Location's, UTC) on clocks hours apart.  Every file of a recording starts within seconds of the start
+    button (a GNSS fix may take a minute), so a file whose first time is more than 10 min from the
+    reference's is on another clock.  The reference is ``Location.csv`` (absolute, GNSS-disciplined),
+    else the clock most files share.  Such a file is shifted by the difference of the first times; when
+    that difference is within 90 s of a whole number of quarter hours (a time-zone error) it is rounded
+    to it, which removes the GNSS start delay from the estimate.
+    """
+    have = {k: v for k, v in ns.items() if v is not None and v.size}
+    if len(have) < 2:
+        return
+    first = {k: int(v.min()) for k, v in have.items()}
+    if "location" in first:
+        ref = first["location"]
+        ref_name = fnames["location"]
+    else:
+        groups = sorted(first.values())
+        ref = max(groups, key=lambda x: sum(abs(y - x) < 600 * 10**9 for y in groups))
+        ref_name = "most files"
+    far = {k: f for k, f in first.items() if abs(f - ref) > 600 * 10**9}
+    if not far:
+        return
+    shifts: dict[int, list[str]] = {}
+    for k, f in far.items():
+        d = ref - f
+        q = 900 * 10**9  # a quarter hour
+        whole = round(d / q) * q
+        shift = whole if abs(d - whole) <= 90 * 10**9 else d
+        ns[k] = ns[k] + shift  # type: ignore[operator]
+        shifts.setdefault(shift, []).append(fnames[k])
+    for shift, names in shifts.items():
+        sec = shift / 1e9
+        how = (
+            "a whole number of quarter hours (a time-zone error)"
+            if shift % (900 * 10**9) == 0
+            else "their first samples aligned (uncertain by the GNSS start delay)"
+        )
+        warnings.append(
+            f"{', '.join(sorted(names))} stamped on a clock {abs(sec) / 3600:.2f} h "
+            f"{'behind' if sec > 0 else 'ahead of'} {ref_name}'s: shifted by {sec:+.3f} s onto it, {how}"
+        )
 
 
 def _xyz(table: pa.Table, what: str) -> np.ndarray:
@@ -157,7 +273,7 @@ def _xyz(table: pa.Table, what: str) -> np.ndarray:
     return np.column_stack([floats(table, a) for a in "xyz"])
 
 
-def _location(table: pa.Table) -> dict[str, object]:
+def _location(table: pa.Table, ios: bool = False) -> dict[str, object]:
     names = set(table.column_names)
     cols: dict[str, object] = {}
 
@@ -176,7 +292,8 @@ def _location(table: pa.Table) -> dict[str, object]:
     if "speed" in names:
         cols["gnss_speed"] = valid("speed")
     if "bearing" in names:
-        cols["gnss_course"] = valid("bearing")
+        course = valid("bearing")
+        cols["gnss_course"] = np.where(course < 360, course, np.nan)
     if "speed" in names and "bearing" in names:
         speed, course = np.asarray(cols["gnss_speed"]), np.radians(np.asarray(cols["gnss_course"]))
         course = np.where(speed == 0.0, np.where(np.isfinite(course), course, 0.0), course)
@@ -184,8 +301,16 @@ def _location(table: pa.Table) -> dict[str, object]:
         cols["vel_e"] = speed * np.sin(course)
     if "horizontalaccuracy" in names:
         cols["gnss_sigma_h"] = valid("horizontalaccuracy", True) / ACCURACY_68_TO_SIGMA
+        bad = ios & (floats(table, "horizontalaccuracy") < 0)  # iOS: latitude and longitude are invalid
+        for c in ("lat", "lon"):
+            if c in cols:
+                cols[c] = np.where(bad, np.nan, np.asarray(cols[c], float))
     if "verticalaccuracy" in names:
         cols["gnss_sigma_v"] = valid("verticalaccuracy", True)
+        bad = ios & (floats(table, "verticalaccuracy") < 0)  # iOS: the altitude is invalid
+        for c in ("h", "h_msl"):
+            if c in cols:
+                cols[c] = np.where(bad, np.nan, np.asarray(cols[c], float))
     return cols
 
 
@@ -199,7 +324,7 @@ def read(path: Path, opts: Options) -> Recording:
     fnames = {stem: fname for stem, (fname, _) in members.items()}
     skipped: list[str] = []
     for stem, (fname, data) in members.items():
-        if stem not in SENSORS or not _is_sensor_file(data):
+        if stem not in SENSORS or not (_is_sensor_file(data) or _is_old_sensor_file(fname, data)):
             skipped.append(fname)
             continue
         dropped: list[str] = []
@@ -216,7 +341,19 @@ def read(path: Path, opts: Options) -> Recording:
             f"{path}: no sensor file with rows in this Sensor Logger export; expected e.g. Accelerometer.csv, "
             "Gyroscope.csv, Location.csv starting with time,seconds_elapsed"
         )
-    ns = {k: _ns(t, fnames[k]) for k, t in tables.items()}
+    ns = {k: _ns(t, fnames[k], warnings) for k, t in tables.items()}
+    version = info.get("version", "").strip()
+    old_style = [fnames[k] for k, t in tables.items() if "seconds_elapsed" not in t.column_names]
+    if old_style:
+        warnings.append(
+            f"{', '.join(sorted(old_style))}: no seconds_elapsed column (an early export"
+            + (f", Metadata version {version}" if version else "")
+            + "): times from the 'time' column alone"
+        )
+    for k, v in list(ns.items()):
+        if v is not None:
+            ns[k] = _as_ns(v, fnames[k], warnings)
+    _align_clocks(ns, fnames, warnings)
     for k, v in ns.items():  # a sensor may re-send cached rows with a time it already gave: keep the first
         if v is None:
             continue
@@ -286,7 +423,7 @@ def read(path: Path, opts: Options) -> Recording:
             Stream("Barometer", times("barometer"), {"pressure": floats(tables["barometer"], "pressure") * 100.0})
         )
     if "location" in tables:
-        cols = _location(tables["location"])
+        cols = _location(tables["location"], ios=platform == "ios")
         if cols:
             streams.append(Stream("Location", times("location"), cols))
     if not streams:

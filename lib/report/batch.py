@@ -1,6 +1,8 @@
 """The batch index page: one row per session of a batch summary, failed sessions with their error line,
-links to each session's page.  Sortable by a click on a column header (a few lines of inline script);
-readable and complete without script."""
+links to each session's page.  The sports' headline figures come first (jump length, take-off speed, max
+speed), the checks after (status, RMS against a truth); on a phone each session is a card of "name: value"
+lines, so nothing is off-screen.  Sortable by a click on a column header (a few lines of inline script);
+readable and complete without script.  "Reading the report" is folded at its end, as on every page."""
 
 from __future__ import annotations
 
@@ -11,15 +13,15 @@ import pyarrow as pa
 
 from sportfusion.report import html as H
 
-#: summary column -> (header, unit, digits)
+#: summary column -> (header, unit, digits): the sports' headline figures first, then the checks
 COLUMNS = (
     ("sport", "sport", "", None),
-    ("status", "status", "", None),
-    ("duration", "duration", "s", 1),
-    ("max_speed", "max speed", "m/s", 2),
     ("jump_length", "jump length", "m", 2),
-    ("video_jump_length", "video jump length", "m", 2),
     ("takeoff_speed", "take-off speed", "m/s", 2),
+    ("max_speed", "max speed", "m/s", 2),
+    ("video_jump_length", "video jump length", "m", 2),
+    ("duration", "recorded", "s", 1),
+    ("status", "status", "", None),
     ("pos_rms", "position RMS vs truth", "m", 3),
     ("vel_rms", "velocity RMS vs truth", "m/s", 3),
 )
@@ -51,30 +53,38 @@ def batch_index(summary: pa.Table, pages: dict[str, str], title: str = "Batch re
     pages : dict
         Session name -> link to its page (relative to the index), for the sessions that have one.
     """
+    from sportfusion.report.glossary import glossary_html
+
     rows: list[dict[str, Any]] = summary.to_pylist()
     head = '<th scope="col" data-sort="1">session</th>' + "".join(
-        f'<th scope="col" data-sort="1">{H.esc(h)}{f" [{u}]" if u else ""}</th>' for _, h, u, _ in COLUMNS
+        f'<th scope="col" data-sort="1">{H.esc(h)}</th>' for _, h, _, _ in COLUMNS
     )
     body = []
     for r in rows:
         name = str(r.get("session"))
         link = f'<a href="{H.esc(pages[name])}">{H.esc(name)}</a>' if name in pages else H.esc(name)
-        cells = [f'<td data-v="{H.esc(name)}">{link}</td>']
-        for col, _, _unit, digits in COLUMNS:
+        cells = [f'<td data-label="session" data-v="{H.esc(name)}">{link}</td>']
+        for col, label, unit, digits in COLUMNS:
             v = r.get(col)
             if digits is None:
                 text = H.esc(v if v is not None else "–")
                 cls = ' class="failed"' if col == "status" and v != "ok" else ""
-                cells.append(f'<td data-v="{H.esc(v)}"{cls}>{text}</td>')
+                cells.append(f'<td data-label="{H.esc(label)}" data-v="{H.esc(v)}"{cls}>{text}</td>')
             else:
-                cells.append(f'<td data-v="{"" if v is None else v}">{H.esc(H.number(v, "", digits))}</td>')
+                shown = f'<span class="num">{H.esc(H.number(v, unit, digits))}</span>'
+                if col in ("max_speed", "takeoff_speed") and v is not None:  # km/h beside, on its own line if need be
+                    shown += f' <span class="num">({H.esc(H.kmh(v))})</span>'
+                cls = ' class="empty"' if v is None else ' class="text"'
+                cells.append(f'<td data-label="{H.esc(label)}" data-v="{"" if v is None else v}"{cls}>{shown}</td>')
         body.append("<tr>" + "".join(cells) + "</tr>")
     failed = [r for r in rows if r.get("status") != "ok"]
     n_ok = len(rows) - len(failed)
     html = (
         f"<h2>Sessions</h2><p>{n_ok} of {len(rows)} sessions ok, {len(failed)} failed. "
-        "Click a column header to sort.</p>"
-        f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table></div>'
+        "Click a column header to sort; a session's name opens its page. RMS vs truth: the 3-D error of a "
+        "simulated session's estimate (position, velocity).</p>"
+        f'<div class="scroll"><table class="cards"><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody>'
+        "</table></div>"
     )
     if failed:
         html += (
@@ -85,7 +95,9 @@ def batch_index(summary: pa.Table, pages: dict[str, str], title: str = "Batch re
             )
             + "</ul>"
         )
-    return H.page(title, f"{len(rows)} sessions", html).replace("</main>", "</main>" + _SORT)
+    html += H.folded("Reading the report: what each figure and word means", glossary_html(), "reading")
+    page = H.page(title, f"{len(rows)} sessions", html, nav=(("Reading the report", "#reading"),))
+    return page.replace("</main>", "</main>" + _SORT)
 
 
 def session_pages(out: Path, names: list[str], page_name: str = "report.html") -> dict[str, str]:

@@ -1,5 +1,6 @@
-"""Ski-jump figures: the hill profile, the jump on the profile coloured by speed, speed against time with a flight zoom,
-the magnetometer against the smoother's prediction (skijump paper eq 50, Figure 12).
+"""Ski-jump figures: the hill profile, the session over it (side and top view), the trajectory as a line
+coloured by speed with a zoom on the flight, the magnetometer against the smoother's prediction (skijump
+paper eq 50, Figure 12).
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from sportfusion.core.plots import (
     _new_figure,
     events_of,
     finish_time_panels,
+    fs,
+    layout,
     legend_outside,
     place_labels,
 )
@@ -105,7 +108,7 @@ def track_figure(
     has_est = ex is not None and ez is not None
     if not has_gnss and not has_est:
         raise InputError("no gnss_x/gnss_z or x/z columns to draw; expected a session after gps2hill")
-    fig = _new_figure(width, height)
+    fig = _new_figure(width, height if layout().legend != "below" else 0.75 * height)
     side, top = fig.subplots(2, 1, sharex=True, height_ratios=[2, 1])
     marks: np.ndarray | None = None
     avoid = [np.empty((0, 2))]
@@ -140,16 +143,16 @@ def track_figure(
                 m2 = m & np.isfinite(sy)
                 top.fill_between(ex[m2], ey[m2] - sy[m2], ey[m2] + sy[m2], color="tab:blue", alpha=0.25, lw=0)
     frame = meta.get("frame") or {}
-    where = f"frame '{frame.get('name', '?')}', azimuth {frame.get('azimuth_deg', 0):g} deg" if frame else "no frame"
-    side.set_title(f"{title}  ({where})" if title else where)
+    where = f"{frame.get('name', '?')} frame, azimuth {frame.get('azimuth_deg', 0):.1f} deg" if frame else "no frame"
+    side.set_title(f"{title}: side view ({where})" if title else f"side view ({where})")
     side.set_ylabel("height, -z [m]")
-    legend_outside(side)
     side.grid(True, lw=0.4, alpha=0.6)
     top.set_ylabel("y (right) [m]")
     top.invert_yaxis()
     top.set_xlabel("x: along the hill axis [m]")
     top.grid(True, lw=0.4, alpha=0.6)
-    top.set_title("top view (y not to scale)", fontsize=9)
+    top.set_title("top view (y not to scale)", fontsize=fs(9))
+    legend_outside(side)
     if marks is not None:
         place_labels(side, marks, ["T", "K", "L"], avoid=np.vstack(avoid))
     return fig
@@ -182,9 +185,10 @@ def speed_figure(
     width: float = 11.0,
     height: float = 9.0,
 ) -> Figure:
-    """Side view of the estimated trajectory coloured by speed (the paper's Figure 7), the whole run on top
-    and, when the session has take-off and touch-down events, a zoom on the flight below (to scale, one
-    colour scale for both).
+    """Side view of the estimated trajectory as a line coloured by speed (the paper's Figure 7), the whole run
+    on top and, when the session has take-off and touch-down events, a zoom on the flight below (to scale,
+    with its own colour scale).  A line, not dots: a thinned table (the report draws at most a few hundred
+    rows) and the full one look the same.
 
     Parameters
     ----------
@@ -201,6 +205,7 @@ def speed_figure(
     InputError
         No ``x z`` or no ``vx vy vz`` columns.
     """
+    from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
 
     x, z = _col(table, "x"), _col(table, "z")
@@ -212,12 +217,27 @@ def speed_figure(
     t = schema.floats(table, "t")
     speed = np.linalg.norm(v, axis=1)
     ok = np.isfinite(x) & np.isfinite(z) & np.isfinite(speed)
+    if not ok.any():
+        raise InputError("no row has an estimate x, z [m] and vx vy vz [m/s] to draw")
     flight = _flight(table)
     if flight is not None and not (ok & (t >= flight[0]) & (t <= flight[1])).any():
         flight = None  # no estimate in the air to zoom on
-    fig = _new_figure(width, height if flight else height * 0.6)
-    axes = list(fig.subplots(2, 1, height_ratios=[1, 1.1])) if flight else [fig.add_subplot()]
-    norm = Normalize(float(np.nanmin(speed[ok])), float(np.nanmax(speed[ok]))) if ok.any() else None
+    # the panels' heights follow their data (to scale): the whole run, then the flight's box
+    xs, ys = [x[ok]], [-z[ok]]
+    if profile is not None:
+        line_xz = _draw_line(profile)
+        xs.append(line_xz[:, 0])
+        ys.append(line_xz[:, 1])
+    spans = [max(np.ptp(np.concatenate(ys)), 1.0) / max(np.ptp(np.concatenate(xs)), 1.0)]
+    if flight:
+        m = ok & (t >= flight[0]) & (t <= flight[1])
+        spans.append((np.ptp(-z[m]) + 8.0) / (np.ptp(x[m]) + 20.0))
+    narrow = layout().legend == "below"
+    fig = _new_figure(width, height)
+    plot_w = fig.get_figwidth() - (0.9 if narrow else 2.2)  # less the colour bar (beside it on a wide page)
+    fig.set_figheight(min(max(plot_w * sum(spans) + (2.2 if narrow else 1.6) * len(spans), 3.0), 2 * height))
+    axes = list(fig.subplots(2, 1, height_ratios=spans)) if flight else [fig.add_subplot()]
+    norm = Normalize(float(np.nanmin(speed[ok])), float(np.nanmax(speed[ok])))
     track = np.column_stack([x[ok], -z[ok]])
     labelled = []
     for t_ev, name in events_of(table):
@@ -237,19 +257,33 @@ def speed_figure(
             ax.set_xlim(x0, x1)
             ax.set_ylim(y0, y1)
             norm = Normalize(float(np.min(speed[sel])), float(np.max(speed[sel])))
-        sc = ax.scatter(x[sel], -z[sel], c=speed[sel], s=4 if k == 0 else 8, cmap="viridis", norm=norm, zorder=3)
+        i = np.flatnonzero(sel)
+        pair = i[:-1][np.diff(i) == 1]  # consecutive rows with an estimate: one segment each
+        segs = np.stack([np.column_stack([x[pair], -z[pair]]), np.column_stack([x[pair + 1], -z[pair + 1]])], axis=1)
+        line = LineCollection(segs, cmap="viridis", norm=norm, linewidths=2.0 if k == 0 else 3.0, zorder=3)
+        line.set_array(0.5 * (speed[pair] + speed[pair + 1]))
+        ax.add_collection(line)
+        ax.autoscale_view()
         ax.plot(*np.array([p[:2] for p in labelled]).T.reshape(2, -1), "o", ms=5, mfc="none", mec="k", zorder=4)
-        fig.colorbar(sc, ax=ax, label="speed |v| [m/s]" if k == 0 else "speed in the zoom |v| [m/s]")
+        fig.colorbar(
+            line,
+            ax=ax,
+            label="speed |v| [m/s]" if k == 0 else "speed in the zoom |v| [m/s]",
+            location="bottom" if narrow else "right",
+            shrink=0.8 if narrow else 1.0,
+        )
         ax.set_xlabel("x [m]")
         ax.set_ylabel("height, -z [m]")
-        ax.set_aspect("equal", adjustable="datalim" if k == 0 else "box")
+        ax.set_aspect("equal", adjustable="box")
         ax.grid(True, lw=0.4, alpha=0.6)
-    axes[0].set_title(title or f"trajectory coloured by speed ({frame} frame{'; circles: events' if labelled else ''})")
+    axes[0].set_title(
+        title or f"trajectory, line coloured by speed ({frame} frame{'; circles: events' if labelled else ''})"
+    )
     if flight:
         i0, i1 = (int(np.argmin(np.abs(t - f))) for f in flight)
         axes[1].set_title(
             f"flight (zoom): {flight[1] - flight[0]:.2f} s in the air, {x[i1] - x[i0]:.1f} m horizontally",
-            fontsize=10,
+            fontsize=fs(10),
         )
         axes[0].indicate_inset_zoom(axes[1], edgecolor="0.3")
     for ax in axes:

@@ -252,6 +252,7 @@ def gyro_dmc_attitude(
     lat_deg: float | None = None,
     coriolis: np.ndarray | None = None,
     reference_ok: np.ndarray | None = None,
+    acc_sigma_rows: np.ndarray | None = None,
 ) -> DMCResult:
     """Gyro-stabilised DMC attitude: the specific force and the field of every sample, tied by the gyroscope.
 
@@ -294,6 +295,8 @@ def gyro_dmc_attitude(
     reference_ok : (N,) bool, rows whose reference specific force is known (a GNSS acceleration, or a
         quiet sample under the low-dynamics assumption); the others use no specific force (the gyro
         and the field carry the attitude there).  None: all.
+    acc_sigma_rows : (N,) extra 1-sigma [m/s^2] per row, added in quadrature to the specific force's (the
+        accelerations a low-dynamics reference ``f = -g`` ignores on a walk), or None.
 
     Returns
     -------
@@ -316,6 +319,8 @@ def gyro_dmc_attitude(
     m_l = np.broadcast_to(_unit(np.asarray(m_ref_ned, float)), f_l.shape)
     mismatch = np.linalg.norm(f_b, axis=1) - np.linalg.norm(f_l, axis=1)
     s_acc = np.sqrt(sigma_acc**2 + (acc_mismatch * mismatch) ** 2)
+    if acc_sigma_rows is not None:
+        s_acc = np.sqrt(s_acc**2 + np.asarray(acc_sigma_rows, float) ** 2)
     if reference_ok is not None:
         s_acc = np.where(np.asarray(reference_ok, bool), s_acc, np.inf)  # non-finite: not observed
     sigma = np.column_stack((s_acc, np.full(s_acc.shape, float(sigma_mag))))

@@ -12,7 +12,7 @@ import pyarrow as pa
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.events import true_runs
-from sportfusion.core.plots import _col, _new_figure, legend_outside, stretch_factor
+from sportfusion.core.plots import _col, _new_figure, fs, legend_outside, stretch_factor
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -98,7 +98,7 @@ def compare_figure(
                         xytext=(3 if vv >= 0 else -3, 0),
                         ha="left" if vv >= 0 else "right",
                         va="center",
-                        fontsize=7,
+                        fontsize=fs(7),
                     )
         if profile is not None and col == "gate_speed_diff":
             schema.require_columns(profile, ("run", "path_distance", "speed_diff"), "plot compare --profile")
@@ -119,10 +119,10 @@ def compare_figure(
         lim = np.nanmax(np.abs(vals)) if np.isfinite(vals).any() else 1.0
         lim = lim if lim > 0 else 1.0
         ax.set_xlim(-1.7 * lim, 1.7 * lim)
-        ax.set_title(name, fontsize=10)
+        ax.set_title(name, fontsize=fs(10))
         ax.set_xlabel(f"run − reference [{unit}]")
         ax.grid(True, axis="x", lw=0.4, alpha=0.6)
-    axes[0].set_yticks(range(len(order)), labels, fontsize=8)
+    axes[0].set_yticks(range(len(order)), labels, fontsize=fs(8))
     axes[0].set_ylim(len(order) - 0.5, -0.5)  # first gate on top
     if nrun == 1:
         from matplotlib.lines import Line2D

@@ -11,7 +11,10 @@ azimuth, y right, z down):
   kicker, the skier flies ballistically (free fall: specific force ~0) and lands
   with a short impact onto a steeper slope;
 * attitude of the sensor (helmet): yaw follows the direction of travel plus a
-  head swing, pitch follows the slope, roll leans into the turns.
+  head swing, pitch follows the path's inclination (with the head's lag), roll
+  leans into the turns; the skier straightens before a take-off and the standing
+  posture blends into the racing one, so the truth has no step: its angular rate
+  and acceleration stay bounded (tests/test_sim_truth_smooth.py).
 
 Sensors (the errors of a MEMS digital magnetic compass and an RTK receiver):
 
@@ -50,6 +53,8 @@ from sportfusion.core.rotations import body_rates, euler_from_quat, local_to_ned
 from sportfusion.core.session import Stream, merge_streams
 
 FINE_DT = 0.001  # truth grid [s]
+AIR_BLEND = 0.3  # the turning fades out before a take-off and back in after the landing over this [s]
+HEAD_LAG = 0.25  # the helmet's pitch follows the path's inclination smoothed over this window [s]
 
 
 @dataclass
@@ -116,6 +121,13 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3 - 2 * x)
 
 
+def _lowpass(x: np.ndarray, width: float) -> np.ndarray:
+    """Zero-phase moving average with a Hann window ``width`` [s] wide on the fine grid (edges held)."""
+    k = max(int(round(width / FINE_DT)) | 1, 3)
+    w = np.hanning(k + 2)[1:-1]
+    return np.convolve(np.pad(x, k // 2, mode="edge"), w / w.sum(), mode="valid")
+
+
 def _truth(cfg: SkiRaceConfig, rng: np.random.Generator, g: float) -> dict:
     """Truth trajectory and attitude on the fine grid."""
     T = cfg.static + cfg.duration
@@ -149,13 +161,21 @@ def _truth(cfg: SkiRaceConfig, rng: np.random.Generator, g: float) -> dict:
         s = slope[i - 1]
         du = -cd * u[i - 1] ** 2 if flight[i - 1] else g * np.sin(s) - mu * g * np.cos(s) - cd * u[i - 1] ** 2
         u[i] = max(u[i - 1] + du * FINE_DT, 0.0)
-    # turns: lateral acceleration, none in flight, ramped in after the start
+    # turns: lateral acceleration, ramped in after the start; none in flight, and the skier straightens
+    # before the take-off and turns again after the landing over AIR_BLEND (no step in the lean)
     ramp = _smoothstep(tr / 4.0) * run
-    alat = cfg.turn_acc * ramp * np.sin(2 * np.pi * tr / cfg.turn_period) * ~flight
+    steer = np.ones(n)
+    for t0, t1 in flights:
+        steer = np.minimum(steer, 1.0 - _smoothstep((t - (t0 - AIR_BLEND)) / AIR_BLEND) * (t < t1))
+        steer = np.minimum(steer, np.where(t >= t1, _smoothstep((t - t1) / AIR_BLEND), 1.0))
+    alat = cfg.turn_acc * ramp * np.sin(2 * np.pi * tr / cfg.turn_period) * steer
     rate = alat / np.maximum(u, 2.0)
     heading = np.cumsum(rate) * FINE_DT
     heading -= np.mean(heading[run]) if run.any() else 0.0
-    heading *= run  # standing start faces the fall line
+    # the standing start faces the fall line; the run's heading offset at its start is taken up while the
+    # turns ramp in (no step in the yaw)
+    if run.any():
+        heading = (heading - heading[np.argmax(run)] * (1.0 - ramp)) * run
     sh = u * np.cos(slope)  # horizontal speed on the ground
     vz = u * np.sin(slope)
     # in flight: ballistic vertical, horizontal speed kept; landing: blend to the slope in 80 ms
@@ -178,14 +198,17 @@ def _truth(cfg: SkiRaceConfig, rng: np.random.Generator, g: float) -> dict:
     vel = np.stack((vx, vy, vz), axis=-1)
     pos = np.concatenate((np.zeros((1, 3)), np.cumsum((vel[1:] + vel[:-1]) / 2 * FINE_DT, axis=0)))
     acc = np.gradient(vel, FINE_DT, axis=0)
-    # attitude of the helmet in NED
+    # attitude of the helmet in NED; the head follows the path's inclination with a lag (the landing's
+    # 80 ms turn of the velocity is smoothed over HEAD_LAG) and the standing posture blends into the
+    # racing one over the first second: the angular rate and acceleration stay those of a head
     az = np.deg2rad(cfg.azimuth_deg)
     head = np.deg2rad(3.0) * np.sin(2 * np.pi * t / 2.7) + np.deg2rad(6.0) * np.sin(2 * np.pi * t / 7.3)
     yaw = az + heading + head
-    gpath = np.arctan2(vz, np.maximum(sh, 1e-9))
-    lean = np.deg2rad(12.0) * np.sin(2 * np.pi * t / 4.1) * ~run
-    pitch = np.where(run, -0.6 * gpath + np.deg2rad(8.0), np.deg2rad(-5.0) + lean / 3)
-    roll = np.where(run, 0.8 * np.arctan2(alat, g), lean / 4) + np.deg2rad(2.0) * np.sin(2 * np.pi * t / 1.9)
+    gpath = _lowpass(np.arctan2(vz, np.maximum(sh, 1e-9)), HEAD_LAG)
+    lean = np.deg2rad(12.0) * np.sin(2 * np.pi * t / 4.1)
+    racing = _smoothstep(tr / 1.0)
+    pitch = racing * (-0.6 * gpath + np.deg2rad(8.0)) + (1 - racing) * (np.deg2rad(-5.0) + lean / 3)
+    roll = racing * 0.8 * np.arctan2(alat, g) + (1 - racing) * lean / 4 + np.deg2rad(2.0) * np.sin(2 * np.pi * t / 1.9)
     q = quat_from_euler(roll, pitch, yaw)
     return {
         "t": t,
