@@ -176,7 +176,11 @@ def body_figure(
         shown = [cr[k] for k in keep]
     else:
         shown = cr
-    ncol = min(6, len(shown))
+    from sportfusion.core.plotlayout import fs, layout
+
+    narrow = layout().width is not None and layout().width < 8.0
+    width = min(width, layout().width or width)
+    ncol = min(3 if narrow else 6, len(shown))
     nrow = int(np.ceil(len(shown) / ncol))
     uv_all = np.array(
         [
@@ -186,11 +190,12 @@ def body_figure(
         ]
     )
     lo, hi = uv_all.min(axis=0) - 0.1, uv_all.max(axis=0) + 0.1
-    row_h = (width / ncol) * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.55
-    fig = _new_figure(width, row_h * nrow + 0.9 + 3.6)
-    sub = fig.subfigures(2, 1, height_ratios=[row_h * nrow + 0.9, 3.6])
-    axs = np.atleast_1d(sub[0].subplots(nrow, ncol, sharex=True, sharey=True, squeeze=False)).ravel()
-    for ax, c in zip(axs, shown, strict=False):
+    row_h = (width / ncol) * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.6
+    plan_h = 4.2 if narrow else 3.6
+    fig = _new_figure(width, row_h * nrow + 1.0 + plan_h)
+    gs = fig.add_gridspec(nrow + 1, ncol, height_ratios=[row_h] * nrow + [plan_h])
+    axs = [fig.add_subplot(gs[i // ncol, i % ncol]) for i in range(len(shown))]
+    for i, (ax, c) in enumerate(zip(axs, shown, strict=True)):
         for chain in _CHAINS:
             uv = np.array([_behind(c, c["points"][p]) for p in chain])
             ax.plot(uv[:, 0], uv[:, 1], "-o", lw=1.6, ms=2.5, color="0.3")
@@ -204,18 +209,20 @@ def body_figure(
             ax.plot(*mu, "^", ms=7, color="tab:red", zorder=5)
             ax.plot([cu[0], mu[0]], [cu[1], mu[1]], ":", lw=0.8, color="tab:red")
             txt += f"\nCoM-magnet {np.linalg.norm(c['points']['com'] - c['magnet']):.2f} m"
-        ax.set_title(txt, fontsize=8)
+        ax.set_title(txt, fontsize=fs(8))
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal", adjustable="box")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.tick_params(labelsize=7)
-    for ax in axs[len(shown) :]:
-        ax.set_axis_off()
-    for ax in axs[(nrow - 1) * ncol : (nrow - 1) * ncol + ncol]:
-        ax.set_xlabel("right of travel [m]", fontsize=8)
-    for ax in axs[::ncol]:
-        ax.set_ylabel("up from the LJC [m]", fontsize=8)
+        ax.tick_params(labelsize=fs(7))
+        if i // ncol == nrow - 1 or i + ncol >= len(shown):
+            ax.set_xlabel("right of travel [m]", fontsize=fs(8))
+        else:
+            ax.tick_params(labelbottom=False)
+        if i % ncol == 0:
+            ax.set_ylabel("up from the LJC [m]", fontsize=fs(8))
+        else:
+            ax.tick_params(labelleft=False)
     from matplotlib.lines import Line2D
 
     handles = [
@@ -224,11 +231,15 @@ def body_figure(
         Line2D([], [], ls="", marker="o", ms=7, mfc="gold", mec="k", label="centre of mass"),
         Line2D([], [], ls="", marker="^", ms=7, color="tab:red", label="gate magnet"),
     ]
-    sub[0].legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8)
-    sub[0].suptitle(
-        f"posture at the gate crossings, seen from behind ({len(shown)} of {len(cr)} crossings)", fontsize=10
+    fig.legend(
+        handles=handles,
+        loc="outside upper center",
+        ncol=2 if narrow else 4,
+        fontsize=fs(8),
+        title=f"posture at the gate crossings, seen from behind ({len(shown)} of {len(cr)} crossings)",
+        title_fontsize=fs(9),
     )
-    _turn_plan(sub[1].subplots(), table, meta, cr, gate)
+    _turn_plan(fig.add_subplot(gs[nrow, :]), table, meta, cr, gate)
     if title:
         fig.suptitle(title)
     return fig
@@ -236,6 +247,7 @@ def body_figure(
 
 def _turn_plan(ax, table: pa.Table, meta: dict, cr: list[dict], gate: int | None) -> None:  # noqa: ANN001
     from sportfusion.core import schema
+    from sportfusion.core.plotlayout import fs
 
     turns = [tr for tr in (meta.get("gate_anchor") or {}).get("turns") or [] if "gate_xyz" in tr]
     if gate is not None:
@@ -269,7 +281,7 @@ def _turn_plan(ax, table: pa.Table, meta: dict, cr: list[dict], gate: int | None
         p = np.array([np.interp(tr[key], t, com[:, j]) for j in range(2)])
         ax.plot(*p, mk, ms=7, mfc="none", mec="k", label=f"turn switch ({key[2:]})")
         ax.plot([p[0], g[0]], [p[1], g[1]], "--", lw=0.8, color="0.4")
-        ax.annotate(f"{dkey} {tr[dkey]:.2f} m", 0.5 * (p + g[:2]), fontsize=8, color="0.3")
+        ax.annotate(f"{dkey} {tr[dkey]:.2f} m", 0.5 * (p + g[:2]), fontsize=fs(8), color="0.3")
     ax.invert_yaxis()  # y to the right of the fall line, seen from above with x down the page's width
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (down the fall line) [m]")
@@ -279,5 +291,5 @@ def _turn_plan(ax, table: pa.Table, meta: dict, cr: list[dict], gate: int | None
     ax.set_title(
         f"turn at gate {tr['gate']} seen from above: length {tr['length']:.2f} m, v_in {tr['v_in']:.2f} m/s, "
         f"v_out {tr['v_out']:.2f} m/s, CoM-magnet at the crossing {tr['d_cross']:.2f} m",
-        fontsize=9,
+        fontsize=fs(9),
     )
