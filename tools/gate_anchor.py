@@ -139,11 +139,14 @@ def main(
     each anchors the standing sacrum (--static-height above the mark): without
     them the track drifts where no gate anchors it, at the start and the finish.
     After body-model (several IMUs): the pelvis orientation of the body model, the
-    relative anchors from the ski contact points and the snow plane (eqs 2-6),
-    turn switches where the ankles are equidistant from the CoM, and the
-    paper's output: com_x com_y com_z, com_vx com_vy com_vz with std_ columns
-    (LJC track + relative CoM, three-point speed, 2nd-order Butterworth 5 Hz
-    zero phase), the turn figures from the CoM."""
+    relative anchors from the snow plane fitted to the ski contact points over
+    +-0.4 s (eqs 2-6), turn switches where the ankles are equidistant from the
+    CoM, and the paper's output: com_x com_y com_z, com_vx com_vy com_vz with
+    std_ columns (the sensor's track + its lever arm to the lumbar joint centre
+    (body-model's pelvis_lever_m) + the relative CoM, three-point speed,
+    2nd-order Butterworth 5 Hz zero phase), the turn figures from the CoM.
+    Crossings are taken at the field peak's time between samples
+    (detect-events' gate_t_peak)."""
     table, meta = tool.read()
     survey, smeta = (None, None)
     if gates_path:
