@@ -112,7 +112,10 @@ def main(
     and hips flex, the trunk leans forward). The still posture gives each
     sensor's vertical axis, the squats the medio-lateral axis (functional
     calibration, Fasel et al. 2017d); the window is found, or given with
-    --calibration T0,T1. Orientations: strap-down integration with the gyro
+    --calibration T0,T1. Knees flexed in the still posture stay in the
+    segments' orientations as a constant offset (11 deg there, on the
+    simulator: thigh 3 deg, shank 8 deg, the ankles ~3 cm forward throughout);
+    stand with straight knees. Orientations: strap-down integration with the gyro
     bias of every still period (start, finish, stops), the tilt reset in each
     still period, and the knee hinge drift correction (the knees' slow
     ab/adduction and axial rotation removed). Body: de Leva's (1996) segments
