@@ -180,8 +180,8 @@ def body_figure(
 
     narrow = layout().width is not None and layout().width < 8.0
     width = min(width, layout().width or width)
-    ncol = min(3 if narrow else 6, len(shown))
-    nrow = int(np.ceil(len(shown) / ncol))
+    nrow = int(np.ceil(len(shown) / (3 if narrow else 6)))
+    ncol = int(np.ceil(len(shown) / nrow))
     uv_all = np.array(
         [
             _behind(c, p)
@@ -190,7 +190,7 @@ def body_figure(
         ]
     )
     lo, hi = uv_all.min(axis=0) - 0.1, uv_all.max(axis=0) + 0.1
-    row_h = (width / ncol) * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.6
+    row_h = (width / ncol) * (hi[1] - lo[1]) / (hi[0] - lo[0]) + 0.45
     plan_h = 4.2 if narrow else 3.6
     fig = _new_figure(width, row_h * nrow + 1.0 + plan_h)
     gs = fig.add_gridspec(nrow + 1, ncol, height_ratios=[row_h] * nrow + [plan_h])
@@ -208,7 +208,7 @@ def body_figure(
             mu = _behind(c, c["magnet"])
             ax.plot(*mu, "^", ms=7, color="tab:red", zorder=5)
             ax.plot([cu[0], mu[0]], [cu[1], mu[1]], ":", lw=0.8, color="tab:red")
-            txt += f"\nCoM-magnet {np.linalg.norm(c['points']['com'] - c['magnet']):.2f} m"
+            txt += f": {np.linalg.norm(c['points']['com'] - c['magnet']):.2f} m"
         ax.set_title(txt, fontsize=fs(8))
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
@@ -236,7 +236,8 @@ def body_figure(
         loc="outside upper center",
         ncol=2 if narrow else 4,
         fontsize=fs(8),
-        title=f"posture at the gate crossings, seen from behind ({len(shown)} of {len(cr)} crossings)",
+        title=f"posture at the gate crossings, seen from behind ({len(shown)} of {len(cr)} crossings); "
+        "in each title the gate and the CoM's distance to its magnet",
         title_fontsize=fs(9),
     )
     _turn_plan(fig.add_subplot(gs[nrow, :]), table, meta, cr, gate)
