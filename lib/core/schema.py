@@ -122,6 +122,7 @@ register("grip", BOOL, "", "hand is gripping (low-motion window)")
 register("imu_saturated", BOOL, "", "IMU sample exceeded the sensor range")
 register("gate_b_peak", F64, "1", "peak magnetic intensity at a gate crossing (normalised)")
 register("gate_distance", F64, "m", "distance to the gate magnet at the crossing")
+register("gate_t_peak", F64, "s", "time of the field peak at a gate crossing, between samples")
 register("turn", STR, "", "turn direction at a gate (L or R)")
 # other table kinds
 register("route", STR, "", "route (track) identifier")
