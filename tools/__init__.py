@@ -37,6 +37,7 @@ COMMANDS = frozenset(
         "rts-smooth",
         "jump-metrics",
         "gate-anchor",
+        "body-model",
         "compare-runs",
         "report",
     )
