@@ -1,14 +1,15 @@
 """Build of the optional C extensions; everything else is declared in pyproject.toml.
 
 * ``sportfusion.estimators._banded_c``: the smoothing spline's banded solve, selected inverse,
-  evaluation and arc length (spline-smooth);
+  evaluation and arc length (spline-smooth), and the block-tridiagonal solves (dmc-attitude, pf-holds);
 * ``sportfusion.skijump._ski_c``: rts-smooth's EKF + RTS loop;
 * ``sportfusion.climbing._climbing_c``: pf-holds' particle filter and backward-simulation paths.
 
-Each imports in about a millisecond where numba's import and first kernel load cost 0.7-1 s of CPU
-(docs/speed.md).  Both are optional: without a C compiler and Python's headers the install goes on and
-the commands use scipy and the numba kernels instead (same results; ``SPORTFUSION_NATIVE=0`` forces
-that path).
+They are the fast path; each kernel has a numpy reference (docs/speed.md).  All are optional: without a C
+compiler and Python's headers the install goes on, and the commands run the numpy reference instead (the same
+results, slower: rts-smooth by 100-200x), saying so once on stderr (``sportfusion.core.native``);
+``SPORTFUSION_NATIVE=0`` forces that path.  Install gcc and the Python headers and run ``pip install -e .``
+again to build them.
 """
 
 from setuptools import Extension, setup

@@ -5,7 +5,7 @@ after the jump, so that IMU, GNSS (10 Hz) and magnetometer run for 600 s.
 
 Timed, in this one process:
 
-* ours, compiled (numba) EKF + RTS loop of the ski model, one pass
+* ours, the C EKF + RTS loop of the ski model (``_ski_c.c``), one pass
   (like-for-like with filterpy), and ``rts_smooth_table`` end to end with its
   defaults (input preparation, re-linearisation passes, output columns);
 * ours, the numpy reference path (``ekf_rts`` with the model callables), on a
@@ -16,23 +16,18 @@ Timed, in this one process:
   to 60,000 steps (filterpy's smoother predicts the mean linearly, F x, where
   ours uses the RK4 prediction of the forward pass).
 
-Compile time: the first call in a fresh numba cache (a subprocess with an
-empty ``NUMBA_CACHE_DIR``) and the cache load of the first call here.
 Memory: our loop stores per step three state vectors, the packed smoothed
 covariance and the innovations (``bytes/step`` below): it grows linearly.
 
-Run: ``python bench/bench_rts_speed.py [--quick] [--slice 3000] [--no-cold]``.
+Run: ``python bench/bench_rts_speed.py [--quick] [--slice 3000]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import resource
-import subprocess
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -60,8 +55,8 @@ def time_filterpy(inp, hill, cfg, n: int) -> float:  # noqa: ANN001
 
     from sportfusion.skijump import model as mdl
     from sportfusion.skijump.kinematics import m_no
-    from sportfusion.skijump.smoother import initial_state
     from sportfusion.skijump.smoother_inputs import ProfileTable, _slice
+    from sportfusion.skijump.smoother_start import initial_state
 
     seg = _slice(inp, 0, n)
     x0, P0 = initial_state(seg, cfg)
@@ -131,29 +126,10 @@ def time_filterpy(inp, hill, cfg, n: int) -> float:  # noqa: ANN001
     return time.perf_counter() - t0
 
 
-def cold_compile_seconds() -> float:
-    """Seconds of the first ski_ekf_rts call with an empty numba cache (a subprocess)."""
-    with tempfile.TemporaryDirectory() as d:
-        env = {**os.environ, "NUMBA_CACHE_DIR": d}
-        t0 = time.perf_counter()
-        prog = (
-            "import numpy as np, time\n"
-            "from sportfusion.skijump.smoother_fast import ski_ekf_rts, N\n"
-            "n=3; z=np.zeros; e=np.zeros(2)\n"
-            "t=np.arange(n)*0.01; u=z((n,6)); pos=np.full((n,3),np.nan); pos[0]=0\n"
-            "ski_ekf_rts(t,u,pos,pos.copy(),pos.copy(),np.zeros(n,bool),z(n),z(n),np.r_[z(6),1,z(15)],np.eye(N),"
-            "9.81,np.eye(3),np.ones(3),np.ones((n,6)),np.ones(3),np.ones(3),1.0,1.0,1.0,1.0,1.0,1.0,0.0,1.0,e,e,0.0,1.0,e,e,"
-            "False,True,True,True)\n"
-        )
-        subprocess.run([sys.executable, "-c", prog], env=env, check=True)
-        return time.perf_counter() - t0
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2-minute session, filterpy on 1000 steps")
     ap.add_argument("--slice", type=int, default=3000, help="steps timed for filterpy and the numpy path")
-    ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile subprocess")
     a = ap.parse_args()
     rest = 98.0 if a.quick else 578.0
     sl = 1000 if a.quick else a.slice
@@ -163,32 +139,25 @@ def main() -> None:
     print(f"session: {n} IMU steps ({inp.t[-1] - inp.t[0]:.0f} s at 100 Hz), built in {time.perf_counter() - t0:.1f} s")
     from sportfusion.skijump import smoother as R
     from sportfusion.skijump import smoother_inputs as RI
+    from sportfusion.skijump.smoother_engine import compiled
+    from sportfusion.skijump.smoother_passes import smooth_inputs
 
-    t0 = time.perf_counter()
-    from sportfusion.skijump import smoother_fast as skijump_fast  # noqa: F401
-
-    small = RI._slice(inp, 0, 50)
-    R.smooth_inputs(small, hill, cfg, engine="numba")
-    load = time.perf_counter() - t0
-    cold = None if a.no_cold else cold_compile_seconds()
-    from sportfusion.skijump._ski_native import native
-
-    best = {}
-    for engine in ("numba", "c") if native() is not None else ("numba",):
-        runs, cpu = [], []
-        for _ in range(3):
-            t0, c0 = time.perf_counter(), time.process_time()
-            R.smooth_inputs(inp, hill, cfg, engine=engine)
-            runs.append(time.perf_counter() - t0)
-            cpu.append(time.process_time() - c0)
-        best[engine] = (min(runs), min(cpu))
-    ours, ours_cpu = best.get("c", best["numba"])
+    if not compiled():
+        print("the C extension sportfusion.skijump._ski_c is not built: only the numpy path can be timed")
+        return
+    runs, cpu = [], []
+    for _ in range(3):
+        t0, c0 = time.perf_counter(), time.process_time()
+        smooth_inputs(inp, cfg, engine="c")
+        runs.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    ours, ours_cpu = min(runs), min(cpu)
     t0 = time.perf_counter()
     R.rts_smooth_table(sim.session, sim.session_meta, hill, takeoff=[tt["takeoff"]], touchdown=[tt["touchdown"]])
     table_s = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    R.smooth_inputs(RI._slice(inp, 0, sl), hill, cfg, engine="numpy")
-    numpy_s = (time.perf_counter() - t0) * n / sl
+    t0, c0 = time.perf_counter(), time.process_time()
+    smooth_inputs(RI._slice(inp, 0, sl), cfg, engine="numpy")
+    numpy_s, numpy_cpu = (time.perf_counter() - t0) * n / sl, (time.process_time() - c0) * n / sl
     try:
         c0 = time.process_time()
         fp = time_filterpy(inp, hill, cfg, sl) * n / sl
@@ -198,16 +167,17 @@ def main() -> None:
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     per_step = (3 * 22 + 253 + 13 + 28) * 8  # x_filt, x_pred, x_smooth, packed P, residuals, std rows
     print(f"{'':44}{'time [s]':>10}{'us/step':>10}")
-    rows = [(f"ours, {e} EKF+RTS, one pass (best of 3)", w) for e, (w, _) in best.items()]
-    rows += [
+    rows = [
+        ("ours, C EKF+RTS, one pass (best of 3)", ours),
         ("ours, rts_smooth_table end to end (defaults)", table_s),
         (f"ours, numpy reference path (x{n / sl:.0f} of {sl})", numpy_s),
         (f"filterpy EKF + rts_smoother (x{n / sl:.0f} of {sl})", fp),
     ]
     for label, s in rows:
         print(f"{label:44}{s:10.2f}{s / n * 1e6:10.1f}")
-    print(f"numba: cache load + first call {load:.2f} s" + ("" if cold is None else f"; cold compile {cold:.1f} s"))
-    print(f"filterpy / ours ({'C' if 'c' in best else 'numba'}, one pass): {fp / ours:.0f}x wall, {fp_cpu / ours_cpu:.0f}x CPU "
+    print(f"numpy reference / C (one pass): x{numpy_s / ours:.0f} wall, x{numpy_cpu / ours_cpu:.0f} CPU "
+          "(the path that runs where the extension is not built)")  # fmt: skip
+    print(f"filterpy / ours (C, one pass): {fp / ours:.0f}x wall, {fp_cpu / ours_cpu:.0f}x CPU "
           f"(target >= {TARGET_RATIO:.0f}x); ours {ours:.2f} s wall, {ours_cpu:.2f} s CPU time "
           f"(target < {TARGET_S:.0f} s on one core; CPU time excludes waiting for a core)")  # fmt: skip
     print(f"memory: {per_step} bytes/step stored ({per_step * n / 1e6:.0f} MB for {n} steps, linear); "

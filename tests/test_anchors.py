@@ -11,12 +11,9 @@ from sportfusion.gates.anchors import (
     principal_azimuth,
     relative_anchors,
     rotate_z,
-    sacrum_height,
-    snow_normals,
     survey_sides,
     turn_numbers,
 )
-from sportfusion.gates.sim import GatesConfig, simulate_gates
 
 
 def _course(rng, n=30):
@@ -89,20 +86,17 @@ def test_survey_sides_and_turn_numbers():
     assert principal_azimuth(np.c_[np.arange(5.0), np.arange(5.0), np.zeros(5)]) == pytest.approx(np.pi / 4)
 
 
-def test_relative_anchors_against_the_simulator():
-    sim = simulate_gates(GatesConfig(seed=5))
-    f, c = sim.fine, sim.crossings
-    k = c["k"]
-    side = np.where(c["turn"] == "R", 1.0, -1.0)
-    ids = np.arange(k.size)
-    normal, _ = snow_normals(sim.magnets, ids)
-    est = relative_anchors(
-        f["pos"][k], f["vel"][k], c["distance"], side, sacrum_height(f["roll"][k]), normal, burial=0.05
-    )
-    err = np.linalg.norm(est - sim.magnets, axis=1)
-    naive = np.linalg.norm(f["pos"][k] - sim.magnets, axis=1)  # the sacrum itself as the anchor
-    assert np.median(err) < 0.12 and err.max() < 0.35  # model errors: posture spread 5 %, burial +-20 %
-    assert np.median(err) < 0.4 * np.median(naive)
+def test_relative_anchors_of_a_known_geometry():
+    # the peak model (eqs 2-6) inverts its own geometry exactly: sensor 0.6 m above the snow, magnet 0.05 m
+    # under it and 0.4 m to the right of the direction of travel
+    p = np.array([[10.0, 2.0, -0.6]])
+    v = np.array([[15.0, 0.0, 0.0]])
+    magnet = np.array([10.0, 2.4, 0.05])
+    r = np.linalg.norm(magnet - p[0])
+    est = relative_anchors(p, v, [r], [1.0], [0.6], None, burial=0.05)
+    assert np.allclose(est[0], magnet, atol=1e-9)
+    left = relative_anchors(p, v, [r], [-1.0], [0.6], None, burial=0.05)
+    assert np.allclose(left[0], [10.0, 1.6, 0.05], atol=1e-9)
 
 
 def test_bad_surveys():

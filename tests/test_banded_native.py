@@ -48,7 +48,7 @@ def _dense_penta(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> np.ndarray:
 
 
 def test_the_extension_is_built_where_a_compiler_is() -> None:
-    # setup.py builds it as optional: a broken build would silently fall back to numba
+    # setup.py builds it as optional: a broken build would silently fall back to the numpy path
     if shutil.which("cc") is None and shutil.which("gcc") is None:
         pytest.skip("no C compiler here")
     if os.environ.get("SPORTFUSION_NATIVE") == "0":
@@ -150,7 +150,7 @@ def test_a_lost_positive_definiteness_goes_to_the_kkt_solve() -> None:
 
 def _fits(monkeypatch: pytest.MonkeyPatch, engine: str, *args: object, **kw: object) -> S.SplineFit:
     if engine == "reference":
-        monkeypatch.setattr(_banded, "_NATIVE", None)  # scipy's banded Cholesky and the numba kernels
+        monkeypatch.setattr(_banded, "_NATIVE", None)  # scipy's banded Cholesky and the numpy references
     try:
         return S.smoothing_spline(*args, **kw)  # type: ignore[arg-type]
     finally:

@@ -113,3 +113,33 @@ def test_the_c_kernels_check_their_arguments() -> None:
         C.bt_factor(1, 33, z, z, z, z)
     with pytest.raises(ValueError, match="expected"):
         C.bt_solve(2, 6, 1, z, z, np.zeros(12))
+
+
+@pytest.mark.parametrize("n", [1, 2, 9, 40000])
+def test_factor_in_place_and_the_chunked_bordered_diagonal_match(n: int) -> None:
+    """``factor(..., overwrite=True)`` (the factors in the system's own memory) and the diagonal of a bordered
+    inverse formed a chunk at a time (40000 blocks: more than one chunk) give what the plain path gives."""
+    b, c = 6, 6
+    d, e, _ = _system(n, b, seed=7) if n < 100 else _system(2, b, seed=7)
+    if n >= 100:  # a long system without its dense matrix
+        rng = np.random.default_rng(7)
+        d = rng.normal(size=(n, b, b))
+        d = d @ np.swapaxes(d, 1, 2) + 2.0 * b * np.eye(b)
+        e = 0.3 * rng.normal(size=(n - 1, b, b))
+    rng = np.random.default_rng(n)
+    border = 0.3 * rng.normal(size=(n, b, c))
+    corner = rng.normal(size=(c, c))
+    corner = corner @ corner.T + 10.0 * n * np.eye(c)
+    plain = blocktri.factor_bordered(d, e, border, corner)
+    d2, e2 = d.copy(), e.copy()
+    inplace = blocktri.bordered(blocktri.factor(d2, e2, overwrite=True), border, corner)
+    r, rc = rng.normal(size=(n, b)), rng.normal(size=c)
+    x1, xc1 = blocktri.solve_bordered(plain, r, rc)
+    x2, xc2 = blocktri.solve_bordered(inplace, r, rc)
+    assert np.allclose(x1, x2, rtol=1e-12, atol=1e-14) and np.allclose(xc1, xc2, rtol=1e-12, atol=1e-14)
+    g1, s1, gb1 = blocktri.diagonal_of_inverse_bordered(plain)
+    g2, s2, gb2 = blocktri.diagonal_of_inverse_bordered(inplace, border=False)
+    assert gb2 is None and np.allclose(s1, s2, rtol=1e-12)
+    ys = plain.y @ plain.s_inv
+    assert np.allclose(g1, blocktri.diagonal_of_inverse(plain.tri) + ys @ np.swapaxes(plain.y, 1, 2), rtol=1e-12)
+    assert np.allclose(g1, g2, rtol=1e-12, atol=1e-15)

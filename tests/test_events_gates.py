@@ -119,3 +119,21 @@ def test_peak_time_between_samples():
         err_refined.append(abs(t[k] + dk * 0.01 - t_true))
         err_sample.append(abs(t[k] - t_true))
     assert max(err_refined) < 0.0015 and max(err_sample) > 0.003, (max(err_refined), max(err_sample))
+
+
+def test_magnets_buried_north_pole_up_are_found_by_their_vector_anomaly():
+    # north pole up, the magnet lowers |B| right above it (a dip); the field's anomaly in a ground-fixed
+    # frame (the gyro carries it there) is a peak whatever the polarity
+    from sportfusion.gates.crossings import GateParams
+
+    sim = simulate_gates(GatesConfig(seed=13, variant="flipped", n_gates=8, static=2.0))
+    c = sim.crossings
+    near = c["distance"] < 0.8
+
+    def found(det):
+        return np.array([np.any(np.abs(np.array([x.t for x in det.crossings]) - tc) < 0.05) for tc in c["t"]])
+
+    with_anomaly = found(detect_gate_table(sim.session))
+    intensity_only = found(detect_gate_table(sim.session, GateParams(anomaly=False)))
+    assert with_anomaly[near].all()
+    assert intensity_only[near].sum() < near.sum()  # the dips the intensity search misses

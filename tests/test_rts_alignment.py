@@ -134,7 +134,7 @@ def test_shift_gnss_moves_fixes_to_the_time_they_describe():
 
 def test_lever_arm_removal_inverts_the_antenna_model():
     from sportfusion.core import rotations
-    from sportfusion.skijump.smoother import _remove_lever_arm
+    from sportfusion.skijump.smoother_passes import _remove_lever_arm
 
     rng = np.random.default_rng(3)
     n = 50
@@ -307,25 +307,25 @@ def test_after_rest_carries_the_attitude_forward_by_the_gyro():
 def test_forward_start_runs_from_the_rests_end(jump, monkeypatch):
     """With start_after_rest (the default) the forward run over the start window begins where the rest at the
     gate ends; without it at the segment's first step.  Both then smooth the whole segment from step 0."""
-    from sportfusion.skijump import smoother as S
+    from sportfusion.skijump import smoother_engine as E
+    from sportfusion.skijump.smoother_passes import smooth_inputs
 
     inp, cfg, _ = jump
-    hill = load_hill(HILL)
     firsts = []
-    orig = S._run_fast
+    orig = E.run
 
-    def spy(fast, seg, cfg_, hill_, x0, P0, smooth=True, *a, **k):
+    def spy(seg, cfg_, x0, P0, use_c, smooth=True, *a, **k):
         firsts.append((float(seg.t[0]), int(seg.t.size), bool(smooth)))
-        return orig(fast, seg, cfg_, hill_, x0, P0, smooth, *a, **k)
+        return orig(seg, cfg_, x0, P0, use_c, smooth, *a, **k)
 
-    monkeypatch.setattr(S, "_run_fast", spy)
-    if S._fast_engine() is None:
-        pytest.skip("no compiled engine: the numpy path runs the same windows through ekf_rts")
+    monkeypatch.setattr(E, "run", spy)
+    if not E.compiled():
+        pytest.skip("the C loop is not built: the numpy path runs the same windows, slowly")
     rest_end = int(_initial_rest(inp, cfg).sum()) - 1
     assert rest_end > 0
     for after, start in ((True, inp.t[rest_end]), (False, inp.t[0])):
         firsts.clear()
-        S.smooth_inputs(inp, hill, SmootherConfig(start_after_rest=after), keep_cov=False)
+        smooth_inputs(inp, SmootherConfig(start_after_rest=after), keep_cov=False)
         forward = [f for f in firsts if not f[2]]
         assert len(forward) == 1 and forward[0][0] == start
         assert any(f[2] and f[0] == inp.t[0] and f[1] == inp.t.size for f in firsts)

@@ -16,6 +16,7 @@ from sportfusion.evaluate import errors
 from sportfusion.skijump.hillfile import load_hill
 from sportfusion.skijump.smoother import rts_smooth_table
 from sportfusion.skijump.smoother_inputs import SmootherConfig
+from sportfusion.skijump.smoother_start import initial_state
 
 FIX = "fixtures/skijump/"
 HILL = "oberstdorf_hs106"
@@ -235,128 +236,143 @@ def _native_built() -> bool:
     return _ski_native.native() is not None
 
 
-@pytest.mark.parametrize(
-    "engine",
-    ["numba", pytest.param("c", marks=pytest.mark.skipif(not _native_built(), reason="C extension not built"))],
-)
-def test_compiled_engine_equals_reference_engine(engine: str) -> None:
-    """The compiled loops (numba; C) -- packed covariances, scalar updates (zero-velocity ones included) --
-    reproduce ekf_rts with the model callables."""
-    pytest.importorskip("numba")
-    from sportfusion.skijump import smoother as R
+needs_c = pytest.mark.skipif(not _native_built(), reason="the C extension sportfusion.skijump._ski_c is not built")
+
+
+def _inputs(tab, meta, hill, cfg, takeoff, touchdown):  # noqa: ANN001, ANN202
     from sportfusion.skijump import smoother_inputs as RI
+
+    return RI.session_inputs(tab, meta, hill, cfg, takeoff, touchdown)[0]
+
+
+@needs_c
+def test_c_engine_equals_the_numpy_reference() -> None:
+    """The C loop -- packed covariances, scalar updates (zero-velocity ones included), the std rows of its
+    backward pass -- reproduces ekf_rts with the model callables on the same inputs."""
+    from sportfusion.skijump.smoother_outputs import _std_from_cov
+    from sportfusion.skijump.smoother_passes import smooth_inputs
 
     tab, meta = sfio.read_table(FIX + "session.parquet")
     tab = tab.slice(0, 900)  # 9 s: rest, release, in-run
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
-    inp, _ = RI.session_inputs(tab, meta, hill, cfg, [8.0], [8.5])
+    inp = _inputs(tab, meta, hill, cfg, [8.0], [8.5])
     assert inp.still is not None and inp.still.sum() > 100  # the rest at the gate: zero-velocity updates
-    a = R.smooth_inputs(inp, hill, cfg, engine=engine)
-    b = R.smooth_inputs(inp, hill, cfg, engine="numpy")
+    a = smooth_inputs(inp, cfg, engine="c")
+    b = smooth_inputs(inp, cfg, engine="numpy")
     np.testing.assert_allclose(a.x_filt, b.x_filt, rtol=0, atol=1e-9)
     np.testing.assert_allclose(a.x_smooth, b.x_smooth, rtol=0, atol=1e-9)
     idx = np.arange(22)
     np.testing.assert_allclose(a.cov(idx), b.cov(idx), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(a.var(), b.var(), rtol=0, atol=1e-10)
     # standard deviations computed in the compiled backward pass = the numpy ones from the covariances
     assert b.std is None and a.std.shape == (inp.t.size, 28)
-    want = np.hstack(R._std_from_cov(b.x_smooth, b.cov, inp, b.var))
+    want = np.hstack(_std_from_cov(b.x_smooth, b.cov, inp, b.var))
     np.testing.assert_allclose(a.std, want, rtol=1e-7, atol=1e-12)
     assert set(a.residuals) == set(b.residuals)
     for k in a.residuals:
         np.testing.assert_allclose(a.residuals[k], b.residuals[k], rtol=0, atol=1e-9)
 
 
-@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+def test_engine_choice() -> None:
+    """auto runs C where it is built, numpy otherwise; c without the extension and unknown engines are refused."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother_engine as E
+
+    assert E.compiled("numpy") is False
+    assert E.compiled("auto") is _native_built()
+    with pytest.raises(InputError, match="expected one of auto, c, numpy"):
+        E.compiled("fortran")
+    saved = _ski_native._NATIVE
+    try:
+        _ski_native._NATIVE = None  # as where it is not built
+        assert E.compiled("auto") is False
+        with pytest.raises(InputError, match="not built.*pip install -e ."):
+            E.compiled("c")
+    finally:
+        _ski_native._NATIVE = saved
+
+
+@needs_c
 def test_c_forward_run_without_filtered_covariances() -> None:
     """A forward run that keeps no covariances (the start window's) gives the same states and residuals."""
-    from sportfusion.skijump import _ski_native
-    from sportfusion.skijump import smoother as R
-    from sportfusion.skijump import smoother_inputs as RI
+    from sportfusion.skijump import smoother_engine as E
 
-    tab, meta = sfio.read_table(FIX + "session.parquet")
-    hill = load_hill(HILL)
-    cfg = SmootherConfig(passes=1)
-    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
-    x0, P0 = R.initial_state(inp, cfg)
-    kept = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=False)
-    assert kept[2].shape == (0, 253)  # no filtered covariances
-    full = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
-    np.testing.assert_array_equal(kept[0], full[0])
-    for k in full[3]:
-        np.testing.assert_array_equal(kept[3][k], full[3][k])
+    _, _, _, cfg, inp, x0, P0 = _first_900_rows()
+    kept = E.run(inp, cfg, x0, P0, True, smooth=False)
+    assert kept.cov.shape == (0, 253)  # no filtered covariances
+    full = E.run(inp, cfg, x0, P0, True, smooth=True)
+    np.testing.assert_array_equal(kept.x_filt, full.x_filt)
+    for k in full.residuals:
+        np.testing.assert_array_equal(kept.residuals[k], full.residuals[k])
 
 
-@pytest.mark.parametrize(
-    "engine",
-    ["numba", pytest.param("c", marks=pytest.mark.skipif(not _native_built(), reason="C extension not built"))],
-)
+@pytest.mark.parametrize("engine", [pytest.param("c", marks=needs_c), "numpy"])
 def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
     """keep_cov=False (what rts-smooth runs: only the std rows are written): the same states, std rows and
-    residuals over two segments, no covariances kept (cov/var refuse), and the C backward pass writes none."""
-    if engine == "numba":
-        pytest.importorskip("numba")
-    from sportfusion.skijump import smoother as R
-    from sportfusion.skijump import smoother_inputs as RI
+    residuals over two segments, no covariances kept by the C engine (cov/var refuse; its backward pass writes
+    none); the numpy engine, which has no std rows, keeps them regardless."""
+    from sportfusion.skijump import smoother_engine as E
+    from sportfusion.skijump.smoother_passes import smooth_inputs
 
+    # the numpy reference on the rest at the gate alone (4 s, no jump): it is slow
+    rows, cut, takeoff, touchdown = (900, 4.0, [13.0], [13.5]) if engine == "c" else (400, 2.0, [], [])
     tab, meta = sfio.read_table(FIX + "session.parquet")
-    tab = tab.slice(0, 900)
+    tab = tab.slice(0, rows)
     t = schema.floats(tab, "t")
-    tab = tab.set_column(0, "t", pa.array(np.where(t > 4.0, t + 5.0, t)))  # logging paused: two segments
+    tab = tab.set_column(0, "t", pa.array(np.where(t > cut, t + 5.0, t)))  # logging paused: two segments
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
-    inp, _ = RI.session_inputs(tab, meta, hill, cfg, [13.0], [13.5])
-    a = R.smooth_inputs(inp, hill, cfg, engine=engine, keep_cov=False)
-    b = R.smooth_inputs(inp, hill, cfg, engine=engine)
+    inp = _inputs(tab, meta, hill, cfg, takeoff, touchdown)
+    a = smooth_inputs(inp, cfg, engine=engine, keep_cov=False)
+    b = smooth_inputs(inp, cfg, engine=engine)
     assert len(a.passes) == 2
     np.testing.assert_array_equal(a.x_smooth, b.x_smooth)
-    np.testing.assert_array_equal(a.std, b.std)
     for k in b.residuals:
         np.testing.assert_array_equal(a.residuals[k], b.residuals[k], err_msg=k)
+    assert b.var().shape == (inp.t.size, 22)
+    if engine == "numpy":
+        assert a.std is None and b.std is None
+        np.testing.assert_array_equal(a.var(), b.var())
+        return
+    np.testing.assert_array_equal(a.std, b.std)
     with pytest.raises(RuntimeError, match="not kept"):
         a.cov(np.arange(3))
     with pytest.raises(RuntimeError, match="not kept"):
         a.var()
-    assert b.var().shape == (inp.t.size, 22)
-    if engine == "c":
-        from sportfusion.skijump import _ski_native
-
-        x0, P0 = R.initial_state(inp, cfg)
-        assert R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False)[2].shape == (0, 253)
+    x0, P0 = initial_state(inp, cfg)
+    assert E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False).cov.shape == (0, 253)
 
 
 def _first_900_rows():  # noqa: ANN202
     """The fixture session's first 900 rows (one jump, take-off at 8 s), one pass: its inputs and initial state."""
-    from sportfusion.skijump import smoother as R
-    from sportfusion.skijump import smoother_inputs as RI
-
     tab, meta = sfio.read_table(FIX + "session.parquet")
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
-    inp, _ = RI.session_inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
-    x0, P0 = R.initial_state(inp, cfg)
+    inp = _inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
+    x0, P0 = initial_state(inp, cfg)
     return tab, meta, hill, cfg, inp, x0, P0
 
 
-@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+@needs_c
 def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyPatch) -> None:
     """The forward pass's predictions kept in ``work``'s third array give the backward pass the numbers it
     would form again, to the bit; smooth_inputs keeps them on a session of many short segments only."""
     from sportfusion.skijump import _ski_native
-    from sportfusion.skijump import smoother as R
-    from sportfusion.skijump import smoother_inputs as RI
+    from sportfusion.skijump import smoother_engine as E
+    from sportfusion.skijump.smoother_passes import smooth_inputs
 
     tab, meta, hill, cfg, inp, x0, P0 = _first_900_rows()
     n = inp.t.size
     work = (np.empty((n, 22)), np.empty((n, 253)))
     pred = np.full((n, _ski_native.NPRED), np.nan)
-    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, work=work)
-    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, work=(*work, pred))
+    a = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, work=work)
+    b = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, work=(*work, pred))
     assert np.isfinite(pred[: n - 1]).all() and np.isnan(pred[n - 1]).all()  # filled by the forward pass
     for i in (0, 1, 4):
         np.testing.assert_array_equal(a[i], b[i])
-    for k in a[3]:
-        np.testing.assert_array_equal(a[3][k], b[3][k], err_msg=k)
+    for k in a.residuals:
+        np.testing.assert_array_equal(a.residuals[k], b.residuals[k], err_msg=k)
 
     seen = []
     run = _ski_native.ski_ekf_rts
@@ -368,39 +384,39 @@ def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyP
     monkeypatch.setattr(_ski_native, "ski_ekf_rts", spy)
     t = schema.floats(tab.slice(0, 900), "t")
     paused = tab.slice(0, 900).set_column(0, "t", pa.array(t + 5.0 * np.searchsorted([2.25, 4.5, 6.75], t)))
-    inp4, _ = RI.session_inputs(paused, meta, hill, cfg, [8.0 + 15.0], [8.5 + 15.0])  # four segments
-    R.smooth_inputs(inp4, hill, cfg, keep_cov=False)
+    inp4 = _inputs(paused, meta, hill, cfg, [8.0 + 15.0], [8.5 + 15.0])  # four segments
+    smooth_inputs(inp4, cfg, keep_cov=False)
     assert seen == [3] * 4
     seen.clear()
-    R.smooth_inputs(inp, hill, cfg, keep_cov=False)  # one segment: fresh scratch would cost more than it saves
+    smooth_inputs(inp, cfg, keep_cov=False)  # one segment: fresh scratch would cost more than it saves
     assert seen == [2]
 
 
-@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+@needs_c
 def test_c_loop_writes_states_and_std_column_by_column() -> None:
     """The C loop's smoothed states and std rows written into a session's column-major arrays (a segment at an
     offset) are its row-major results, to the bit; each column of them is contiguous; other layouts are refused."""
     from sportfusion.skijump import _ski_native
-    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_engine as E
 
     _, _, hill, cfg, inp, x0, P0 = _first_900_rows()
     n = inp.t.size
     rows = (np.empty((n, 22)), np.empty((n, 22)), np.empty((n, _ski_native.NRES)), np.empty((n, _ski_native.NSTD)))
-    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=rows)
+    a = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, out=rows)
     xs, std = _ski_native.column_outputs(n + 7)
     assert xs[:, 3].flags.c_contiguous and std[:, 3].flags.c_contiguous
     xs.T[:] = np.nan
     cols = (np.empty((n, 22)), xs[5 : 5 + n], np.empty((n, _ski_native.NRES)), std[5 : 5 + n])
-    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=cols)
-    np.testing.assert_array_equal(a[1], b[1])
-    np.testing.assert_array_equal(a[4], b[4])
-    np.testing.assert_array_equal(b[1], xs[5 : 5 + n])
+    b = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, out=cols)
+    np.testing.assert_array_equal(a.x_smooth, b.x_smooth)
+    np.testing.assert_array_equal(a.std, b.std)
+    np.testing.assert_array_equal(b.x_smooth, xs[5 : 5 + n])
     assert np.isnan(xs[:5]).all() and np.isnan(xs[5 + n :]).all()  # nothing written outside the segment
-    for k in a[3]:
-        np.testing.assert_array_equal(a[3][k], b[3][k], err_msg=k)
+    for k in a.residuals:
+        np.testing.assert_array_equal(a.residuals[k], b.residuals[k], err_msg=k)
     strided = (np.empty((n, 22)), np.empty((n, 44))[:, ::2], np.empty((n, _ski_native.NRES)), std[5 : 5 + n])
     with pytest.raises(ValueError, match="x_smooth must be"):
-        R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True, keep_cov=False, out=strided)
+        E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, out=strided)
 
 
 @pytest.mark.slow
@@ -423,7 +439,7 @@ def test_relinearisation_passes_recover_a_bad_start():
     assert 2 <= m["rts"]["passes"][0] <= SmootherConfig().passes + 1
 
 
-@pytest.mark.parametrize("engine", ["numba", "numpy", "auto"])
+@pytest.mark.parametrize("engine", ["numpy", pytest.param("c", marks=needs_c)])
 def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
     """A hard c_q on a quaternion given zero prior variance: the innovation variance is zero at step 0."""
     from sportfusion.core.errors import InputError
@@ -436,7 +452,7 @@ def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not _native_built(), reason="C extension not built")
+@needs_c
 @pytest.mark.parametrize("flag", ["-DSKI_PLAIN_C", "-DSKI_NO_CLONES"])
 def test_c_other_builds_agree_with_this_one(flag: str, tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The loop built as other compilers and CPUs get it -- plain C without GCC's/Clang's vector types
@@ -450,7 +466,7 @@ def test_c_other_builds_agree_with_this_one(flag: str, tmp_path, monkeypatch: py
     from pathlib import Path
 
     from sportfusion.skijump import _ski_native
-    from sportfusion.skijump import smoother as R
+    from sportfusion.skijump import smoother_engine as E
 
     ld = shlex.split(sysconfig.get_config_var("LDSHARED") or "")
     if not ld or shutil.which(ld[0]) is None:
@@ -466,9 +482,9 @@ def test_c_other_builds_agree_with_this_one(flag: str, tmp_path, monkeypatch: py
     spec.loader.exec_module(other)
 
     tab, meta, hill, cfg, inp, x0, P0 = _first_900_rows()
-    a = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
+    a = E.run(inp, cfg, x0, P0, True, smooth=True)
     monkeypatch.setattr(_ski_native, "_NATIVE", other)
-    b = R._run_fast(_ski_native, inp, cfg, hill, x0, P0, smooth=True)
+    b = E.run(inp, cfg, x0, P0, True, smooth=True)
     np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)  # (other flags: the last bits differ)
     np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-9)
     np.testing.assert_allclose(a[2], b[2], rtol=0, atol=1e-10)

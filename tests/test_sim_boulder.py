@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from sportfusion.climbing import _so3
 from sportfusion.climbing.holds import validate
-from sportfusion.climbing.sim import BoulderConfig, disturbance_field, simulate_boulder
+from sportfusion.climbing.sim import VARIANTS, BoulderConfig, disturbance_field, simulate_boulder
 from sportfusion.core import io as sfio
 from sportfusion.core import schema
 
@@ -24,6 +24,9 @@ CLEAN = dict(
     mag_noise=0.0,
     mag_bias=0.0,
     p_impact=0.0,
+    gyr_bias_walk=0.0,
+    acc_temp=0.0,
+    gyr_temp=0.0,
 )
 
 
@@ -142,3 +145,41 @@ def test_cli_writes_session_truth_and_holds(tmp_path):
     assert tt.column("true_hold").type == schema.lookup("hold").type
     res = CliRunner().invoke(main, ["boulder", "--help"])
     assert res.exit_code == 0 and "Example" in res.output and "[Hz]" in res.output
+
+
+def test_truth_attitude_is_smooth(clean):
+    # bounded angular rate and acceleration of the hand (no slaps in this trial; a slap would ring the hand by
+    # about 0.04 rad at 30 Hz, 1400 rad/s^2)
+    q = np.column_stack([schema.floats(clean.truth, f"true_q{i}") for i in range(4)])
+    t = schema.floats(clean.truth, "t")
+    r = _so3.matrix_from_quat(q)
+    w = _so3.log(np.swapaxes(r[:-1], 1, 2) @ r[1:]) / np.diff(t)[:, None]
+    alpha = np.diff(w, axis=0) / np.diff(t)[1:, None]
+    assert np.abs(w).max() < 10.0 and np.abs(alpha).max() < 200.0  # rad/s, rad/s^2 (measured: 5, 65)
+
+
+def test_variants_and_the_extra_unit_errors():
+    assert set(VARIANTS) >= {"nominal", "steel-wall", "volumes", "rests", "wall-grips", "sensor", "big-hand"}
+    assert BoulderConfig(variant="rests").grip_scale == 3.0
+    assert BoulderConfig(variant="rests", grip_scale=2.0).grip_scale == 2.0  # an explicit field wins
+    with pytest.raises(ValueError, match="unknown variant"):
+        BoulderConfig(variant="nope")
+    base = simulate_boulder(BoulderConfig(seed=5, imu_rate=60, route_holds=10))
+    rest = simulate_boulder(BoulderConfig(seed=5, imu_rate=60, route_holds=10, variant="rests"))
+    assert rest.segments[-1].t1 > 1.8 * base.segments[-1].t1
+    vol = simulate_boulder(BoulderConfig(seed=5, imu_rate=60, route_holds=10, variant="volumes"))
+    hm = validate(vol.holds, vol.holds_meta)
+    d = [np.linalg.norm(sg.c0 - hm.position(sg.hold)) for sg in vol.segments if sg.kind == "grip" and sg.hold >= 0]
+    assert max(d) > 0.1  # grips far from the centres of big holds
+    # the plan does not depend on the unit's extra errors (a second random stream)
+    hot = simulate_boulder(BoulderConfig(seed=5, imu_rate=60, route_holds=10, temp_rise=30.0))
+    assert hot.truth.equals(base.truth) and not hot.session.equals(base.session)
+
+
+def test_hold_map_is_the_documented_format():
+    # written by the simulator itself, read by the estimator's validator
+    sim = simulate_boulder(BoulderConfig(seed=9, imu_rate=60, route_holds=12))
+    hm = validate(sim.holds, sim.holds_meta)
+    assert sim.holds_meta["kind"] == "holds" and set(hm.routes) == set(sim.holds.column("route").to_pylist())
+    assert all(len(v) == 2 for v in hm.start_holds.values()) and hm.top_holds
+    assert hm.magnetic_field is not None and np.isclose(np.linalg.norm(hm.magnetic_field), 1.0)

@@ -13,7 +13,7 @@ from sportfusion.core.magfield import reference_field
 from sportfusion.core.rotations import local_to_ned, quat_from_euler, to_body, to_ned
 from sportfusion.core.schema import floats
 from sportfusion.gates.magnet import default_calibration
-from sportfusion.gates.sim import FINE_DT, GatesConfig, body_rates, simulate_gates
+from sportfusion.gates.sim import FINE_DT, VARIANTS, GatesConfig, body_rates, simulate_gates
 
 
 @pytest.fixture(scope="module")
@@ -33,19 +33,24 @@ def test_course_is_a_giant_slalom(sim):
     assert 650 < m[-1, 0] - m[0, 0] + 55 < 800  # start 30 m before gate 1, finish 25 m after the last: ~700 m
     assert 120 < m[-1, 2] - m[0, 2] < 160  # drop over the gates (150 m start -> finish)
     d = sim.crossings["distance"]
-    assert d.min() >= 0.15 and d.max() <= 1.45 and np.median(d) < 0.9  # the sacrum passes 0.2-1.2 m away
+    assert d.min() >= 0.15 and d.max() <= 1.6 and np.median(d) < 0.9  # the unit passes 0.2-1.5 m from the magnets
     f = sim.fine
     on_course = (f["t"] > sim.crossings["t"][0]) & (f["t"] < sim.crossings["t"][-1])
     speed = np.linalg.norm(f["vel"][on_course], axis=1)
-    assert 14.5 < speed.min() and speed.max() < 25.5
-    # turn sides alternate and the gate is on the inside of the turn (R turn <=> the magnet is to the right)
+    assert 14.0 < speed.min() and speed.max() < 26.5  # 15-25 m/s of the snow point; the body moves about it
+    # turn sides alternate and the gate is on the inside of the turn (R turn <=> the magnet is to the right),
+    # checked where the unit passes clearly beside it
     turns = sim.crossings["turn"]
     assert all(a != b for a, b in zip(turns[:-1], turns[1:], strict=False))
+    beside = 0
     for j, k in enumerate(sim.crossings["k"]):
         v = f["vel"][k]
-        rel = m[j] - f["pos"][k]
-        right = v[0] * rel[1] - v[1] * rel[0] > 0
-        assert right == (turns[j] == "R")
+        rel = sim.magnet_centres[j] - f["pos"][k]
+        lateral = (v[0] * rel[1] - v[1] * rel[0]) / np.hypot(v[0], v[1])
+        if abs(lateral) > 0.15:
+            beside += 1
+            assert (lateral > 0) == (turns[j] == "R")
+    assert beside >= 10
 
 
 def test_truth_is_kinematically_consistent(sim):
@@ -53,10 +58,19 @@ def test_truth_is_kinematically_consistent(sim):
     dpos = np.diff(f["pos"], axis=0) / FINE_DT
     vmid = (f["vel"][1:] + f["vel"][:-1]) / 2
     assert np.median(np.abs(dpos - vmid)) < 1e-3
-    assert np.abs(f["acc"]).max() < 60  # no spikes (GS: ~2-3 g)
-    # static at start and finish
-    assert np.linalg.norm(f["vel"][: int(4.0 / FINE_DT)], axis=1).max() < 1e-6
-    assert np.linalg.norm(f["vel"][-int(4.0 / FINE_DT) :], axis=1).max() < 1e-6
+    assert np.abs(f["acc"]).max() < 60  # no spikes (GS: up to 3-4 g at the unit)
+    # standing: the body sways (a centimetre), it does not travel
+    k4 = int(4.0 / FINE_DT)
+    assert np.ptp(f["pos"][:k4], axis=0).max() < 0.05 and np.linalg.norm(f["vel"][:k4], axis=1).max() < 0.1
+    assert np.ptp(f["pos"][-k4:], axis=0).max() < 0.05 and np.linalg.norm(f["vel"][-k4:], axis=1).max() < 0.1
+
+
+def test_truth_attitude_is_smooth(sim):
+    # bounded angular rate and acceleration: no kink in the body's attitude (the unit's gyro would see it)
+    w = body_rates(sim.fine["q"], FINE_DT)
+    alpha = np.gradient(w, FINE_DT, axis=0)
+    assert np.abs(w).max() < 8.0  # rad/s
+    assert np.abs(alpha).max() < 150.0  # rad/s^2 (a hockey stop's turn: about 25)
 
 
 def test_body_rates_of_a_known_rotation():
@@ -83,23 +97,29 @@ def test_imu_measures_the_truth(sim):
     f_ned = to_ned(q, acc)
     a_est = f_ned + np.array([0, 0, g])
     err = local_to_ned(a_true, cfg.azimuth_deg) - a_est
-    # sensor noise (vibration 0.8 m/s^2) averages out; the mean is the bias (0.03 m/s^2 1-sigma)
-    assert np.abs(err.mean(axis=0)).max() < 0.15
-    assert 0.5 < err.std(axis=0).mean() < 1.2
-    # gyro: the static start measures only the bias
+    # standing: only the chip's errors (bias, scale and misalignment on gravity: a few 0.01 m/s^2)
+    still = floats(s, "t")[imu] < 4.0
+    assert np.abs(err[still].mean(axis=0)).max() < 0.15 and err[still].std(axis=0).max() < 0.1
+    # skiing: the chatter (1.5 m/s^2 RMS at 20 m/s, 8-60 Hz) averages out; what is left is bias and scale
+    assert np.abs(err.mean(axis=0)).max() < 0.25
+    assert 0.5 < err.std(axis=0).mean() < 3.0
+    # gyro: the static start measures the bias (a few 0.01 rad/s) and the sway (a few 0.01 rad/s)
     gyr = col(s, "gyr_x", "gyr_y", "gyr_z")[imu]
-    st = floats(s, "t")[imu] < 4.0
-    assert np.abs(gyr[st].mean(axis=0)).max() < 0.05
-    # magnetometer at 125 Hz; far from the magnets it measures the Earth field
+    assert np.abs(gyr[still].mean(axis=0)).max() < 0.06
+    # magnetometer at 125 Hz, quantised to 0.1 uT; far from the magnets it measures the Earth field
+    # (plus a few uT of the start hut, the anomaly and the athlete's equipment)
     mag_rows = np.isfinite(floats(s, "mag_x"))
     assert np.isclose(np.median(np.diff(floats(s, "t")[mag_rows])), 1 / 125)
-    earth = reference_field(cfg.site[0], cfg.site[1], cfg.site[2], cfg.date)
     mb = col(s, "mag_x", "mag_y", "mag_z")[mag_rows][:200]
+    assert np.allclose(mb / 0.1, np.round(mb / 0.1), atol=1e-6)
+    earth = reference_field(cfg.site[0], cfg.site[1], cfg.site[2], cfg.date)
     qb = col(tr, "true_q0", "true_q1", "true_q2", "true_q3")[mag_rows][:200]
-    assert np.abs(mb - to_body(qb, earth)).mean() < 1.0
+    assert np.abs(mb - to_body(qb, earth)).mean() < 4.0
 
 
 def test_magnet_peaks_follow_the_cube_law(sim):
+    # the stack's field is not a dipole's, but its peaks still fall with about the cube of the distance:
+    # the estimator's cube law (calibrated on dipole passes) is within 0.1 m for passes under 0.7 m
     s = sim.session
     mag_rows = np.isfinite(floats(s, "mag_x"))
     tm = floats(s, "t")[mag_rows]
@@ -116,11 +136,32 @@ def test_magnet_peaks_follow_the_cube_law(sim):
     assert np.abs(np.median(err)) < 0.1 and np.percentile(np.abs(err), 90) < 0.3
 
 
+def test_magnet_field_is_the_scene_s(sim):
+    # the magnetometer, with the unit's errors and the equipment taken out roughly, sees the scene's field:
+    # at each close pass its peak excess matches the scene's excess at the true position within 10 %
+    s = sim.session
+    mag_rows = np.isfinite(floats(s, "mag_x"))
+    tm = floats(s, "t")[mag_rows]
+    mb = np.linalg.norm(col(s, "mag_x", "mag_y", "mag_z")[mag_rows], axis=1)
+    be = np.linalg.norm(sim.scene.earth_ned)
+    ratio = []
+    for tc, k, d in zip(sim.crossings["t"], sim.crossings["k"], sim.crossings["distance"], strict=True):
+        if d > 0.6:
+            continue
+        w = np.abs(tm - tc) < 0.03
+        model = np.linalg.norm(sim.scene.field_ned(sim.fine["pos"][k][None])[0])
+        ratio.append((mb[w].max() - be) / (model - be))
+    assert len(ratio) >= 8 and abs(np.median(ratio) - 1.0) < 0.1
+
+
 def test_survey_local_and_wgs84(sim):
     srv = sim.survey
     xyz = col(srv, "x", "y", "z")
     e = xyz - sim.magnets
     assert np.abs(e[:, :2]).max() < 0.1 and np.abs(e[:, 2]).max() < 0.15 and np.abs(e).max() > 0
+    # the survey is the snow above each magnet: the stick's centre lies 0.09-0.14 m under it
+    depth = sim.magnet_centres[:, 2] - sim.magnets[:, 2]
+    assert 0.08 < depth.min() and depth.max() < 0.15
     assert sim.survey_meta["kind"] == "gates"
     w = simulate_gates(GatesConfig(seed=3), survey_wgs84=True)
     lat, lon, h = (floats(w.survey, c) for c in ("lat", "lon", "h"))
@@ -134,6 +175,25 @@ def test_downhill_variant():
     d = simulate_gates(GatesConfig(seed=1, downhill=True))
     spacing = np.linalg.norm(np.diff(d.magnets, axis=0), axis=1)
     assert spacing.min() > 60 and d.magnets.shape[0] == 12
+
+
+def test_variants_change_what_they_say():
+    assert set(VARIANTS) >= {"nominal", "stray-iron", "tilted", "weak", "flipped", "wide", "still", "sensor"}
+    assert GatesConfig(variant="flipped").magnets.polarity == "up"
+    assert GatesConfig(variant="weak").magnets.moment < 0.5 * GatesConfig().magnets.moment
+    assert GatesConfig(variant="still").static == 30.0
+    assert GatesConfig(variant="stray-iron").stray.pylons == 3
+    assert GatesConfig(variant="wide", wide_fraction=0.5).wide_fraction == 0.5  # an explicit field wins
+    with pytest.raises(ValueError, match="unknown variant"):
+        GatesConfig(variant="nope")
+    # a short course per variant that changes the magnetic scene: the passes still see the magnets
+    for v, check in (
+        ("flipped", lambda m: m[2] < 0),  # moment up (z down): the field above it points up
+        ("tilted", lambda m: True),
+    ):
+        sim = simulate_gates(GatesConfig(seed=4, variant=v, n_gates=4, static=2.0))
+        mom = sim.scene.magnets[0].moment
+        assert check(mom) and 25 < np.linalg.norm(mom) < 40  # the paper's stack: about 32 A m^2
 
 
 def test_cli_writes_session_truth_and_survey(tmp_path):

@@ -266,7 +266,7 @@ def test_cli_bad_distance_and_hill(tmp_path):
 
 
 # -- a regenerated fixture is compared as numbers, never byte for byte -------------------------
-# A fresh install picks up newer numpy/scipy/numba/pyproj releases whose last bits differ (2.6e-5 m in
+# A fresh install picks up newer numpy/scipy/pyproj releases whose last bits differ (2.6e-5 m in
 # true_x was seen).  Tolerance: 1e-6 of each column's span (0.2 mm on a 200 m track, 5e-5 m/s^2 on the
 # accelerometer) plus 1e-9; text files (CSV, NMEA) number for number, a printed number within 5 units of
 # its last printed digit.  Anything structural (columns, row counts, sentence types, metadata keys) exact.

@@ -90,3 +90,22 @@ def test_hdop_weights_the_fixes():
         xy = np.column_stack([floats(out, "x"), floats(out, "y")])
         err.append(float(np.sqrt(np.mean(np.sum((xy - true[:, :2]) ** 2, axis=1)))))
     assert err[0] < 0.75 * err[1], err
+
+
+def test_step_speed_is_the_running_median_of_the_step_speeds():
+    """The running median (scipy inside, shrinking windows at the ends) equals its definition: the median of
+    the finite step speeds within ``window // 2`` epochs either side; a missing fix is skipped."""
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    rng = np.random.default_rng(5)
+    for n in (3, 4, 17, 31, 32, 200):
+        t = np.cumsum(rng.uniform(0.5, 1.5, n))
+        y = np.cumsum(rng.normal(0, 3, (n, 2)), axis=0)
+        v = np.linalg.norm(np.diff(y, axis=0), axis=1) / np.diff(t)
+        v = np.r_[v[0], v]
+        pad = np.r_[np.full(15, np.nan), v, np.full(15, np.nan)]
+        ref = np.nanmedian(sliding_window_view(pad, 31), axis=1)
+        np.testing.assert_allclose(step_speed(t, y), ref, rtol=0, atol=1e-12, err_msg=str(n))
+    y[50] = np.nan  # a missing fix: its two steps are left out of the medians around it
+    est = step_speed(t, y)
+    assert np.isfinite(est).all() and abs(est[50] - np.nanmedian(v[35:66])) < 2.0

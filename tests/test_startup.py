@@ -1,8 +1,7 @@
 """Start-up cost as a property: importing a command's module loads none of the heavy libraries.
 
-``--help`` and a no-op stage should cost about ``import numpy, pyarrow``; numba (and its cached
-kernels), scipy's signal/optimize/linalg/..., OpenCV, matplotlib and pyproj are imported where a
-command body uses them.  This checks the property (which modules are loaded), never a time.
+``--help`` and a no-op stage should cost about ``import numpy, pyarrow``; scipy's signal/optimize/linalg/...,
+OpenCV, matplotlib and pyproj are imported where a command body uses them.  This checks the property (which modules are loaded), never a time.
 """
 
 from __future__ import annotations
@@ -15,8 +14,6 @@ from pathlib import Path
 import sportfusion.tools
 
 HEAVY = (
-    "numba",
-    "llvmlite",
     "scipy.signal",
     "scipy.optimize",
     "scipy.linalg",

@@ -5,7 +5,9 @@ thread unless the user set them: the commands' linear algebra is on small matric
 threads only spin -- on a 2-core machine they added ~0.3 s of CPU to an rts-smooth run (issue 18).
 Set ``OPENBLAS_NUM_THREADS`` (or ``OMP_NUM_THREADS``) yourself to override.
 
-In a console script's process it also pauses Python's cyclic garbage collector while the command's
+In a console script's process it installs the signal handlers of the output layer first (SIGINT,
+SIGTERM, SIGHUP: temporaries removed, no traceback, exit 128 + signal number) and holds the number of a
+closed standard stream with /dev/null.  It also pauses Python's cyclic garbage collector while the command's
 modules import: numpy, pyarrow, click and the library create objects that live as long as the process,
 and the ~60 young-generation collections that sweep them cost ~20 ms of CPU on a 2-core machine (a
 tenth of a ``--help``; issue 18).  :class:`sportfusion.tools._cli.CleanExit` freezes what the imports made and turns
@@ -43,8 +45,33 @@ COMMANDS = frozenset(
     )
 )
 
+#: Whether this process is a console script (the first import of every command's process).
+CONSOLE = bool(getattr(_sys, "argv", None)) and _os.path.basename(_sys.argv[0]) in COMMANDS
+
+if CONSOLE:
+    # SIGINT, SIGTERM, SIGHUP from here on: no traceback (also while the command's modules import), the
+    # temporaries of unfinished outputs removed, exit 128 + the signal number (sportfusion.core.outputs)
+    from sportfusion.core.outputs import install_signal_handlers as _install
+
+    _install()
+    # a standard stream closed by the caller (>&-, <&-): its number is held by /dev/null, opened the wrong
+    # way round (reads and writes fail), so no file the command opens later takes it (a table written "to
+    # stdout" would land in an input file); Python already set sys.stdin/sys.stdout to None, which the
+    # frame refuses in one line (tools._cli)
+    for _fd, _flags in ((0, _os.O_WRONLY), (1, _os.O_RDONLY), (2, _os.O_WRONLY)):
+        try:
+            _os.fstat(_fd)
+        except OSError:
+            try:
+                _held = _os.open(_os.devnull, _flags)
+                if _held != _fd:
+                    _os.dup2(_held, _fd, inheritable=False)
+                    _os.close(_held)
+            except OSError:
+                pass
+
 #: Whether this import paused the collector (a console script's process); CleanExit.main resumes it.
-GC_PAUSED = bool(getattr(_sys, "argv", None)) and _os.path.basename(_sys.argv[0]) in COMMANDS and _gc.isenabled()
+GC_PAUSED = CONSOLE and _gc.isenabled()
 if GC_PAUSED:
     _gc.disable()
 

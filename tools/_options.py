@@ -109,7 +109,7 @@ LIMITS: dict[str, tuple[float | None, float | None, str, str]] = {
     "elsewhere": (0, 100, "sigmas", ""),
     "reading_accuracy": (0, 100, "m", ""),
     "max_event_dt": (0, 3600, "s", ""),
-    "max_gate_distance": (0, 1000, "m", ""),
+    "max_gate_distance": (0.1, 1000, "m", ""),
     "profile_step": (0.01, 1000, "m", ""),
     "max_gap": (0, 3600, "s", ""),
     "edge_factor": (1, 100, "1", ""),
@@ -271,11 +271,22 @@ def check_option_values(cmd: click.Command, values: dict[str, Any]) -> None:
         longest = max(p.opts, key=len)
         value = values[p.name or ""]
         items = value if isinstance(value, tuple) else (value,)
+        if (
+            isinstance(value, str)
+            and not value.strip()
+            and (isinstance(p.type, click.Path) or "FILE" in (p.metavar or ""))
+        ):
+            raise click.BadParameter("is empty; expected a name or a file", param_hint=longest)
         if longest in FLOAT_LISTS:
             for item in items:
                 if longest == "--origin" and str(item).strip().lower() == "auto":
                     continue  # gps2hill --origin auto: the first fix (no numbers to check)
-                parse_floats(str(item), len(FLOAT_LISTS[longest]), longest)
+                vals = parse_floats(str(item), len(FLOAT_LISTS[longest]), longest)
+                if longest == "--outage" and not vals[0] < vals[1]:
+                    raise click.BadParameter(
+                        f"{item!r}: the outage ends before it starts; expected START,END with START < END [s]",
+                        param_hint=longest,
+                    )
         elif longest in ("--takeoff", "--touchdown"):  # comma-separated instants [s]
             for item in items:
                 for v in str(item).split(","):
@@ -289,6 +300,10 @@ def check_option_values(cmd: click.Command, values: dict[str, Any]) -> None:
             check_hill_set(parse_pairs(items, longest))
 
 
+#: A random seed: numpy's generators take a non-negative integer.
+SEED = click.IntRange(min=0)
+
+
 def seed_truth_options(truth_help: str = "Write the truth table (kind truth, Parquet) to this file.") -> Any:
     """Add ``--seed N`` and ``--truth FILE`` (the command receives ``seed`` and ``truth_path``) to a simulator."""
 
@@ -296,7 +311,7 @@ def seed_truth_options(truth_help: str = "Write the truth table (kind truth, Par
         f = click.option(
             "--truth", "truth_path", type=click.Path(dir_okay=False, writable=True), default=None, help=truth_help
         )(f)
-        return click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")(f)
+        return click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed [integer >= 0].")(f)
 
     return decorate
 

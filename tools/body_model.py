@@ -8,7 +8,6 @@ import click
 
 from sportfusion.body.anthropometry import CONTACT_M, EQUIPMENT_KG
 from sportfusion.body.pipeline import BodyModelParams, body_model_table
-from sportfusion.core.errors import InputError
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import parse_floats, parse_pairs
 
@@ -169,11 +168,7 @@ def main(
         buf = io.BytesIO()
         write_opensense(buf, schema.floats(table, "t")[rows], res.rot)
         sto = buf.getvalue()
+    if sto is not None:  # a side output, committed with the table: a failed run leaves neither
+        tool.write_bytes(sto, opensense_path)
     tool.info(msg)
     tool.write(out, meta)
-    if sto is not None:  # after the table: a failed run leaves neither (i38's side outputs will commit both)
-        try:
-            with open(opensense_path, "wb") as fh:  # type: ignore[arg-type]
-                fh.write(sto)
-        except OSError as exc:
-            raise InputError(f"cannot write --opensense {opensense_path}: {exc.strerror or exc}") from exc

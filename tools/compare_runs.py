@@ -6,8 +6,8 @@ from pathlib import Path
 
 import click
 
-from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
+from sportfusion.core.outputs import printable
 from sportfusion.core.venue import read_venue
 from sportfusion.skirace.compare import compare_tables, require_trajectory
 from sportfusion.tools._cli import Tool, tool
@@ -122,11 +122,11 @@ def main(
         )
     tables = [(names[0], ref_table, ref_meta)]
     for label, path in zip(names[1:], runs, strict=True):
-        table, meta = sfio.read_table(path, kind="session", what=f"run {path}")
+        table, meta = tool.read_side(path, kind="session", what=f"run {printable(path)}")
         tables.append((label, table, meta))
     gates = None
     if gates_path is not None:
-        gates = read_venue(gates_path, "gates", what=f"gates file {gates_path}")
+        gates = read_venue(gates_path, "gates", what=f"gates file {printable(gates_path)}")
     summary, info, warnings = compare_tables(
         tables, gates, max_gate_distance, profile_step if profile_path is not None else None
     )
@@ -147,6 +147,5 @@ def main(
     tool.info(f"{len(names)} runs compared over {len(info['gates'])} common gates (reference {names[0]})")
     if profile_path is not None:
         pmeta = {**meta, "compare": {**meta["compare"], "profile_step_m": profile_step}}
-        pmeta = sfmeta.add_provenance(pmeta, tool.name, dict(tool.params))
-        sfio.write_table(info["profile"], pmeta, profile_path)
+        tool.write_side(profile_path, info["profile"], pmeta)
     tool.write(summary, meta)

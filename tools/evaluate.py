@@ -33,6 +33,7 @@ from sportfusion.tools._cli import Tool, _is_tty, tool
     "evaluate",
     cites=("skijump",),
     writes_table=False,
+    stdout=True,
     example="""
   simulate skijump --seed 1 --truth truth.parquet | gps2hill --hill oberstdorf_hs106 \\
       | detect-events --kind jump | rts-smooth --hill oberstdorf_hs106 > est.parquet
@@ -127,6 +128,7 @@ def main(
     in the local skiing frame) and Table 2 (Bland-Altman bias and 95 % limits
     of agreement of the turn figures) beside the paper's, and the relative CoM
     beside Fasel et al. 2017's 25.7 +- 6.7 mm."""
+    tool.output = output  # the main output: -o or standard output
     if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
         raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
     if video_path is not None:
@@ -156,7 +158,7 @@ def main(
         text = format_text(ev, f"{what} vs truth ({truth_path}); errors = {what} - truth")
         if com is not None:
             text += "\n" + format_com(com)
-        sfio.write_bytes(text.encode(), output)
+        tool.write_bytes(text.encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):
@@ -184,7 +186,7 @@ def _jumps_vs_truth(
     cmp = compare_jumps(est, truth_meta, max_event_dt)
     if fmt == "text":
         title = f"jumps (jump-metrics) vs truth ({truth_path}); errors = estimate - truth"
-        sfio.write_bytes(format_jumps(cmp, title).encode(), output)
+        tool.write_bytes(format_jumps(cmp, title).encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):
@@ -203,7 +205,7 @@ def _jump_lengths(tool: Tool, video_path: str, reading_accuracy: float, fmt: str
     cmp = compare_jump_lengths(est, ref, reading_accuracy)
     if fmt == "text":
         title = f"jump length: estimate L_TR vs video L_VR ({video_path}); dL = L_TR - L_VR (skijump Table 7)"
-        sfio.write_bytes(format_jump_lengths(cmp, title).encode(), output)
+        tool.write_bytes(format_jump_lengths(cmp, title).encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
     for key in ("frame", "hill"):

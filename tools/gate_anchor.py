@@ -69,7 +69,21 @@ from sportfusion.tools._cli import Tool, tool
     default=0.05,
     show_default=True,
     type=click.FloatRange(0, 1),
-    help="Depth of the magnets below the snow surface [m].",
+    help="Peak model: depth of the magnets below the snow surface [m].",
+)
+@click.option(
+    "--survey-depth",
+    default=GateAnchorParams.survey_depth,
+    show_default=True,
+    type=click.FloatRange(0, 1),
+    help="Depth of each magnet's centre below its surveyed point: 0 if the survey gives the magnets themselves, "
+    "about 0.1 if it gives the snow above a buried 15 cm stick [m].",
+)
+@click.option(
+    "--peak-model",
+    is_flag=True,
+    help="Place each anchor from the peak intensity and the body model alone (the paper's eqs 1-6) instead "
+    "of a fit of the whole pass's field with a bar magnet [flag].",
 )
 @click.option(
     "--projection",
@@ -117,6 +131,8 @@ def main(
     sigma_second: float,
     sacrum_height: float,
     burial: float,
+    survey_depth: float,
+    peak_model: bool,
     projection: str,
     static_height: float,
     sigma_spot: float,
@@ -129,9 +145,14 @@ def main(
     extended Kalman smoother (position, velocity, acceleration, position offset,
     residual orientation drift; sportfusion.estimators.kalman) with zero-velocity updates at
     the static start and finish; relative anchor points at the crossings found by
-    detect-events --kind gates; matching to the survey (PCA azimuth, neighbour
-    features, eq 9, median offset, absolute re-matching); the smoother again with
-    the anchors (1 m, then 0.1 m after re-matching). Writes x y z, vx vy vz and
+    detect-events --kind gates: the magnet's position relative to the sensor from a
+    fit of the whole pass's field (the magnetometer rotated into the global frame,
+    the background removed, a bar magnet of free moment fitted), or from the peak
+    intensity and the body model (--peak-model, the paper's eqs 1-6); matching to
+    the survey (PCA azimuth, then a sequence alignment of crossings and gates by
+    their inertial displacements, robust to runs of missed gates); the smoother
+    again with the anchors (1 m, then each pass fit's covariance, or 0.1 m with
+    --peak-model). Writes x y z, vx vy vz and
     std_ columns on every row, and at each crossing the matched gate, whether it
     was an anchor and the turn's figures (speeds at the turn switches, distances
     to the gate, path length). Where the gates table also surveys the spots the
@@ -158,6 +179,8 @@ def main(
         anchors_every=anchors_every,
         sacrum_height=sacrum_height,
         burial=burial,
+        survey_depth=survey_depth,
+        pass_fit=not peak_model,
         projection=projection,
         static_height=static_height,
         sigma_spot=sigma_spot,

@@ -10,8 +10,6 @@ from pathlib import Path
 import click
 
 from sportfusion.core.errors import InputError
-from sportfusion.core.io import write_table
-from sportfusion.core.meta import add_provenance
 from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
 from sportfusion.ingest.xsensdir import segment_recording
 from sportfusion.tools._cli import Tool, tool
@@ -219,7 +217,7 @@ def main(
     if holds_out is not None:
         if not holds:
             raise InputError("--holds-out: no input came with a hold map; expected a bouldering trial (see --hold-map)")
-        write_table(holds[0][0], add_provenance(holds[0][1], tool.name, tool.params), holds_out)
+        tool.write_side(holds_out, holds[0][0], holds[0][1])
     elif holds:
         tool.info("a hold map was found; write it for pf-holds with --holds-out FILE")
     order = time_order_totals(meta)

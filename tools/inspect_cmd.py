@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 
 import click
 import pyarrow.csv as pacsv
@@ -15,6 +14,7 @@ from sportfusion.tools._cli import Tool, tool
 @tool(
     "inspect",
     writes_table=False,
+    stdout=True,
     example="""
   ingest fixtures/raw/phyphox_jump.zip | inspect
   inspect session.parquet --rows 10
@@ -43,9 +43,8 @@ def main(tool: Tool, rows: int, as_csv: bool, as_json: bool) -> None:
         raise click.UsageError("--csv and --json exclude each other")
     table, meta = tool.read(kind=None)
     if as_json:
-        sys.stdout.write(json.dumps(describe_json(table, meta), indent=2) + "\n")
+        tool.write_bytes((json.dumps(describe_json(table, meta), indent=2) + "\n").encode())
     elif as_csv:
-        pacsv.write_csv(table, sys.stdout.buffer)
+        tool.outputs.add_stream(None, lambda fh: pacsv.write_csv(table, fh))
     else:
-        sys.stdout.write(render(table, meta, rows))
-    sys.stdout.flush()
+        tool.write_bytes(render(table, meta, rows).encode())

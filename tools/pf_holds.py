@@ -12,6 +12,7 @@ from sportfusion.core import schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.session import with_columns
 from sportfusion.tools._cli import Tool, tool
+from sportfusion.tools._options import SEED
 
 
 @tool(
@@ -38,7 +39,9 @@ from sportfusion.tools._cli import Tool, tool
     help="Time from which grips may be at any hold of the wall [s]; default: the session's climbing.descent_time.",
 )
 @click.option("--particles", default=200, show_default=True, type=click.IntRange(2, 100000), help="Particles [count].")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of the particle filter [integer].")
+@click.option(
+    "--seed", default=0, show_default=True, type=SEED, help="Random seed of the particle filter [integer >= 0]."
+)
 @click.option(
     "--smooth/--no-smooth",
     default=True,

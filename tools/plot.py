@@ -30,7 +30,7 @@ def hill_cmd(tool: Tool, hill: str, hill_set: tuple[str, ...], output: str, titl
 
     the_hill = load_hill_option(hill, hill_set)
     fig = hill_figure(the_hill.profile, title or the_hill.name)
-    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.write_bytes(render(fig, figure_format(output), dpi), output)
     tool.info(f"wrote {output}")
 
 
@@ -59,7 +59,7 @@ def track_cmd(
     else:
         profile, name = profile_from_meta(meta), (meta.get("hill") or {}).get("name", "")
     fig = track_figure(table, meta, profile, title or name)
-    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.write_bytes(render(fig, figure_format(output), dpi), output)
     tool.info(f"wrote {output}")
 
 
@@ -97,7 +97,7 @@ def compare_cmd(tool: Tool, output: str, title: str | None, dpi: float, profile_
     fig = compare_figure(table, meta, title or "", profile=profile)
     if meta.get("kind") != "summary":
         raise InputError(f"the input is a '{meta.get('kind')}' table; expected the summary written by compare-runs")
-    sfio.write_bytes(render(fig, figure_format(output), dpi), output)
+    tool.write_bytes(render(fig, figure_format(output), dpi), output)
     tool.info(f"wrote {output}")
 
 

@@ -19,7 +19,7 @@ from sportfusion.tools._options import hill_options, image_options, load_hill_op
 def _write(tool: Tool, fig: object, output: str, dpi: float) -> None:
     from sportfusion.core.plots import figure_format, render
 
-    sfio.write_bytes(render(fig, figure_format(output), dpi), output)  # type: ignore[arg-type]
+    tool.write_bytes(render(fig, figure_format(output), dpi), output)  # type: ignore[arg-type]
     tool.info(f"wrote {output}")
 
 

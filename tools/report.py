@@ -117,4 +117,4 @@ def main(
             holds=holds,
         )
         tool.info("; ".join(f"{k} {v}" for k, v in figures.items()) + f" -> {output}")
-    sfio.write_bytes(page.encode("utf-8"), output)
+    tool.write_bytes(page.encode("utf-8"), output)

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.describe import ms_to_kmh
 from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.tools._cli import Tool, tool
-from sportfusion.tools._options import hill_options, load_hill_option, parse_floats
+from sportfusion.tools._options import SEED, hill_options, load_hill_option, parse_floats
 
 DEFAULT_HILL = "oberstdorf_hs106"
 
@@ -33,7 +32,7 @@ DEFAULT_HILL = "oberstdorf_hs106"
     "needed for hills without a site.",
 )
 @click.option("--azimuth", type=float, default=None, help="Hill azimuth psi_N, north -> hill x axis, clockwise [deg].")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed [integer].")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed [integer >= 0].")
 @click.option(
     "--distance",
     type=click.FloatRange(min=1.0),
@@ -171,7 +170,7 @@ def main(
         extra += [f"lat={lat!r}", f"lon={lon!r}", f"height={h!r}"]
     if azimuth is not None:
         extra.append(f"azimuth_deg={azimuth!r}")
-    the_hill = load_hill_option(hill or DEFAULT_HILL, extra)
+    the_hill = load_hill_option(DEFAULT_HILL if hill is None else hill, extra)
     cfg = SkiJumpConfig(
         seed=seed,
         distance=distance,
@@ -192,7 +191,8 @@ def main(
         f"jump length {sim.truth_meta['jump_length']:.2f} m; {sim.session.num_rows} rows"
     )
     if video_path:
-        from sportfusion.skijump.video.render import RenderOptions, render_simulated
+        from sportfusion.skijump.video.markers import markers_path_for, write_markers
+        from sportfusion.skijump.video.render import RenderOptions, render_landing, trajectory_from_truth
 
         size = video_size.lower().split("x")
         if len(size) != 2 or not all(v.strip().isdigit() for v in size):
@@ -211,13 +211,19 @@ def main(
             flags=video_extras,
             seed=seed,
         )
-        video = render_simulated(video_path, sim.truth, sim.truth_meta, the_hill.profile, vopts, tool.progress)
+        trajectory = trajectory_from_truth(sim.truth, sim.truth_meta)
+        res = tool.write_file(
+            video_path, lambda tmp: render_landing(tmp, trajectory, the_hill.profile, vopts, tool.progress)
+        )
+        markers = markers_path_for(video_path)
+        tool.write_file(markers, lambda tmp: write_markers(tmp, res.markers))
+        video = {"file": str(video_path), "markers": str(markers), **res.summary()}
         sim.truth_meta["video"] = video
         sim.truth_meta["touchdown_frame"] = video["touchdown_frame"]
-        tool.info(f"wrote {video_path} and {video['markers']}: touch-down in frame {video['touchdown_frame']}")
+        tool.info(f"{video_path} and {markers}: touch-down in frame {video['touchdown_frame']}")
     if truth_path:
-        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+        tool.write_side(truth_path, sim.truth, sim.truth_meta)
     if raw_dir:
-        for path in write_raw(sim, raw_dir):
-            tool.info(f"wrote {path}")
+        written = tool.write_folder(raw_dir, lambda folder: write_raw(sim, folder))
+        tool.info(f"{raw_dir}: {', '.join(p.name for p in written)}")
     tool.write(sim.session, sim.session_meta)

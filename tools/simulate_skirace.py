@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import click
 
-from sportfusion.core import io as sfio
 from sportfusion.core import meta as sfmeta
 from sportfusion.skirace.sim import SkiRaceConfig, simulate_skirace
 from sportfusion.tools._cli import Tool, tool
@@ -134,6 +133,6 @@ def main(
     )
     sim = simulate_skirace(cfg)
     if truth_path:
-        sfio.write_table(sim.truth, sfmeta.add_provenance(sim.truth_meta, tool.name, tool.params), truth_path)
+        tool.write_side(truth_path, sim.truth, sim.truth_meta)
     tool.info(f"{sim.session.num_rows} rows, {sim.gnss_t.size} GNSS epochs ({int((sim.gnss_status != 4).sum())} float)")
     tool.write(sim.session, sim.meta)

@@ -18,6 +18,7 @@ from sportfusion import __version__
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
+from sportfusion.core.outputs import note_read, printable
 from sportfusion.skijump.video.markers import markers_path_for, read_markers
 from sportfusion.tools._cli import Group, Tool, papers_epilog, tool
 
@@ -80,7 +81,7 @@ def main() -> None:
 @click.option(
     "--debug",
     "debug_dir",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False, writable=True),
     default=None,
     help="Write annotated PNG frames around the touch-down and a plot of the skis' height per frame [px, m] here.",
 )
@@ -107,6 +108,7 @@ def measure(tool: Tool, videos: tuple[str, ...], markers_path: str | None, debug
         mpath = Path(markers_path) if markers_path else markers_path_for(video)
         if not mpath.exists():
             raise InputError(f"no marker file {mpath} for {video}; expected --markers FILE (a CSV distance,y,col,row)")
+        note_read(mpath)  # the default marker file beside the video is an input too
         markers = read_markers(mpath)
         reading = measure_video(video, markers, progress=tool.progress)
         tool.info(
@@ -114,8 +116,8 @@ def measure(tool: Tool, videos: tuple[str, ...], markers_path: str | None, debug
             f"jump length {reading.jump_length:.2f} m +- {reading.std_jump_length:.2f} m"
         )
         if debug_dir:
-            for p in write_debug(video, reading, markers, debug_dir):
-                tool.info(f"wrote {p}")
+            written = tool.write_folder(debug_dir, lambda folder: write_debug(video, reading, markers, folder))  # noqa: B023
+            tool.info(f"{debug_dir}: {', '.join(p.name for p in written)}")
         values = (
             str(video),
             reading.touchdown_frame,
@@ -165,12 +167,16 @@ def calibrate(tool: Tool, video: str, output: str | None, step: int) -> None:
 
     out = Path(output) if output else Path(video).with_name(Path(video).stem + ".grid.png")
     img = grid_image(video, step)
-    try:
-        ok = cv2.imwrite(str(out), img)
-    except cv2.error:
-        ok = False
-    if not ok:
-        raise InputError(f"cannot write {out}; expected a writable .png path")
+
+    def encode(path: str) -> None:
+        try:
+            ok = cv2.imwrite(path, img)
+        except cv2.error:
+            ok = False
+        if not ok:
+            raise InputError(f"cannot write {printable(str(out))}; expected a writable .png path")
+
+    tool.write_file(out, encode)
     tool.info(f"wrote {out} ({img.shape[1]}x{img.shape[0]} px, grid every {step} px)")
 
 

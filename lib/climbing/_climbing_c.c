@@ -80,7 +80,9 @@ typedef struct {
     double radius, sigma, log_peak, log_other, ess_fraction;
 } Dims;
 
-/* The forward pass.  Returns the merge step (-1: never; k0 with one stratum), sets *resamples. */
+/* The forward pass: particles.run_particle_filter's numpy loop over blocks of steps, here step by step (the same
+ * prediction, likelihood, strata, merge and resampling, the same random numbers).  Returns the merge step (-1:
+ * never; k0 with one stratum), sets *resamples. */
 static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *normal_pos,
                        const double *chol, const double *ustep, const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
                        const int64_t *late, const double *temper, const double *r_pos, const int64_t *r_code,

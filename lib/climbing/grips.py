@@ -112,9 +112,22 @@ def detect_grips(
     ok = spread < p.threshold
     if np.isfinite(p.mean_threshold):
         ok &= np.linalg.norm(mean, axis=1) < p.mean_threshold
+    del mean, spread
     if f is not None and np.isfinite(p.acc_threshold):
         ok &= _window_stats(f, half)[2] < p.acc_threshold
     out[k] = ok
+    return out
+
+
+def _to_world(q: np.ndarray, *vectors: np.ndarray, chunk: int = 1 << 14) -> tuple[np.ndarray, ...]:
+    """``vectors`` (n, 3) rotated by the unit-normalised quaternions ``q`` (n, 4, sensor to world), as
+    :func:`detect_grips` does with ``r_world``, a chunk of rows at a time (no (n, 3, 3) matrices)."""
+    out = tuple(np.empty_like(v) for v in vectors)
+    for s in range(0, q.shape[0], chunk):
+        qs = q[s : s + chunk]
+        r = _so3.matrix_from_quat(qs / np.linalg.norm(qs, axis=1)[:, None])
+        for v, o in zip(vectors, out, strict=True):
+            o[s : s + chunk] = np.einsum("nij,nj->ni", r, v[s : s + chunk])
     return out
 
 
@@ -143,19 +156,22 @@ def grip_columns(table: pa.Table, params: GripParams | None = None) -> tuple[dic
     p = params or GripParams()
     schema.require_columns(table, (*IMU_COLUMNS, "acc_x", "acc_y", "acc_z"), "grip detection")
     gyr = schema.float_columns(table, IMU_COLUMNS)
-    acc = schema.float_columns(table, [f"acc_{a}" for a in "xyz"])
     rows = np.isfinite(gyr).all(axis=1)
     if rows.sum() < p.window + 1:
         raise InputError(
             f"only {int(rows.sum())} gyroscope samples; expected more than the grip window of {p.window} samples"
         )
-    r_world = None
+    gyr = gyr[rows]  # the IMU rows only, each array once (a long trial's memory)
+    acc = np.nan_to_num(schema.float_columns(table, [f"acc_{a}" for a in "xyz"])[rows])
+    sat = range_violations(acc, gyr, p)
+    w, f = gyr, acc
     if p.world_frame and all(c in table.column_names for c in DEV_Q):
         q = schema.float_columns(table, DEV_Q)[rows]
         if np.isfinite(q).all() and (np.linalg.norm(q, axis=1) > 0.5).all():
-            r_world = _so3.matrix_from_quat(q / np.linalg.norm(q, axis=1)[:, None])
-    grip = detect_grips(gyr[rows], p, r_world, np.nan_to_num(acc[rows]))
-    sat = range_violations(np.nan_to_num(acc[rows]), gyr[rows], p)
+            w, f = _to_world(q, gyr, acc)
+        del q
+    grip = detect_grips(w, p, None, f)
+    del w, f
     n = table.num_rows
     mask = ~rows
     g_full = np.zeros(n, dtype=bool)

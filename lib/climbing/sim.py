@@ -36,7 +36,16 @@ over the whole wall: a heading bias of several degrees) and one or two dipoles
 ``dev_q0..3`` is the unit's own orientation estimate (sensor to world, scalar
 first, as the Xsens export gives it) with a slowly varying error of a few degrees.
 
-Everything random comes from one ``numpy.random.Generator`` seeded by ``seed``.
+Written apart from the estimators it scores (:mod:`sportfusion.climbing.transition`, ``particles``,
+``holds``): it imports the core and the simulation toolkit only (rotations from ``core.rotations``; the
+hold map written in the documented table format here, and read back by the estimator's validator in the
+tests).  Besides the errors above, the unit's biases drift with its temperature (the hand warms up by
+``temp_rise`` over a minute) and the gyro bias walks; the sensor sits a little differently on every
+hand (``lever_spread`` around ``LEVER``).  Named model-mismatch variants (:data:`VARIANTS`,
+``BoulderConfig(variant=...)``, ``simulate boulder --variant``) change one aspect of this world at a time.
+
+Everything random comes from ``seed``: the trial's plan from one generator, the unit's extra errors
+(lever spread, temperature, bias walk) from a second, so the plan is the same whatever those are.
 """
 
 from __future__ import annotations
@@ -46,15 +55,56 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyarrow as pa
 
-from sportfusion.climbing import _so3
-from sportfusion.climbing.holds import holds_table
 from sportfusion.core import meta as sfmeta
 from sportfusion.core import schema
 from sportfusion.core.magfield import field_from_angles
+from sportfusion.core.rotations import dcm_from_quat, quat_from_dcm, quat_from_rotvec, rotvec_from_quat, skew
+from sportfusion.sim.sensors import temperature_profile
 
 ROUTE_NAMES = ("yellow", "blue", "green", "red", "purple", "black")
 LEVER = np.array([-0.06, 0.0, 0.03])  # sensor on the back of the hand, from the grip point (fingers) [m]
 DATE = "2026-03-02T15:00:00Z"
+
+
+def _exp(phi: np.ndarray) -> np.ndarray:
+    """Rotation matrices (sensor -> map, Hamilton) of rotation vectors ``phi`` [rad] (..., 3)."""
+    return np.swapaxes(dcm_from_quat(quat_from_rotvec(np.asarray(phi, dtype=float))), -1, -2)
+
+
+def _log(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors [rad] of rotation matrices (..., 3, 3)."""
+    return rotvec_from_quat(quat_from_dcm(np.swapaxes(np.asarray(r, dtype=float), -1, -2)))
+
+
+def _quat(r: np.ndarray) -> np.ndarray:
+    """Scalar-first quaternions of rotation matrices (the Hamilton ``R(q)``)."""
+    return quat_from_dcm(np.swapaxes(np.asarray(r, dtype=float), -1, -2))
+
+
+#: model-mismatch variants: name -> (what changes, the BoulderConfig fields it sets)
+VARIANTS: dict[str, tuple[str, dict]] = {
+    "nominal": ("the realistic default", {}),
+    "steel-wall": (
+        "a steel frame close behind the panels: disturbances 0.6-1.2 of the field near the wall, 0.3-0.5 over it",
+        {"disturbance": (0.6, 1.2), "disturbance_far": (0.3, 0.5)},
+    ),
+    "volumes": (
+        "big holds and volumes: most grips 10-25 cm from the hold's centre",
+        {"p_off_centre": 0.7, "off_centre": (0.10, 0.25)},
+    ),
+    "rests": ("long rests: every grip three times as long (the hand rolling and swaying)", {"grip_scale": 3.0}),
+    "wall-grips": ("the wall gripped between holds on a third of the moves", {"p_wall_grip": 0.35}),
+    "slaps": ("dynamic climbing: half the arrivals slap the hold beyond the accelerometer's range", {"p_impact": 0.5}),
+    "sensor": (
+        "a poorer unit: scale 3 %, misalignment 1.5 deg, gyro bias walk 1e-3 rad/s/sqrt(s), three times the "
+        "temperature drift",
+        {"acc_scale": 0.03, "gyr_scale": 0.03, "misalignment": 0.026, "gyr_bias_walk": 1e-3, "temp_rise": 24.0},
+    ),
+    "big-hand": (
+        "a large hand: the sensor 9 cm along the hand and 4.5 cm out from the grip point, 2 cm spread",
+        {"lever": (-0.09, 0.0, 0.045), "lever_spread": 0.02},
+    ),
+}
 
 
 @dataclass
@@ -87,7 +137,25 @@ class BoulderConfig:
     mag_noise: float = 0.005  # normalised, per sample
     mag_bias: float = 0.01  # normalised, 1-sigma per axis
     disturbance: tuple[float, float] = (0.2, 0.6)  # disturbance at the nearest wall point (normalised)
+    disturbance_far: tuple[float, float] = (0.1, 0.35)  # the frame far behind the wall, over the wall (normalised)
     site: tuple[float, float, float] = (53.1065, 8.8520, 10.0)  # gym: lat [deg], lon [deg], h [m]
+    variant: str = "nominal"
+    off_centre: tuple[float, float] = (0.06, 0.12)  # distance of an off-centre grip from the hold centre [m]
+    grip_scale: float = 1.0  # grip durations times this [1]
+    lever: tuple[float, float, float] = tuple(LEVER)  # sensor from the grip point, hand frame [m]
+    lever_spread: float = 0.01  # 1-sigma per axis of the sensor's place on this hand [m]
+    gyr_bias_walk: float = 2e-4  # [rad/s/sqrt(s)]
+    temp_rise: float = 8.0  # the unit warms by this much over the trial [K]
+    acc_temp: float = 0.003  # accelerometer bias temperature coefficient, 1-sigma per axis [m/s^2/K]
+    gyr_temp: float = 3e-4  # gyro bias temperature coefficient, 1-sigma per axis [rad/s/K]
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANTS:
+            raise ValueError(f"unknown variant {self.variant!r}; expected one of {', '.join(VARIANTS)}")
+        fields = BoulderConfig.__dataclass_fields__
+        for k, v in VARIANTS[self.variant][1].items():
+            if getattr(self, k) == fields[k].default:  # a field set explicitly wins over the variant
+                setattr(self, k, v)
 
 
 @dataclass
@@ -217,19 +285,21 @@ def _grip_rotation(rng: np.random.Generator, wall: Wall) -> np.ndarray:
     base = np.column_stack([x, np.cross(z, x), z])
     roll = rng.uniform(-0.7, 0.7)
     tilt = rng.uniform(-0.35, 0.35)
-    return base @ _so3.exp(np.array([0.0, tilt, roll]))
+    return base @ _exp(np.array([0.0, tilt, roll]))
 
 
-def _contact(rng: np.random.Generator, wall: Wall, centre: np.ndarray, p_off: float) -> np.ndarray:
+def _contact(
+    rng: np.random.Generator, wall: Wall, centre: np.ndarray, p_off: float, off: tuple[float, float] = (0.06, 0.12)
+) -> np.ndarray:
     """Grip point for a hold centre: a little out of the wall, centred or off-centre."""
     e1 = np.array([1.0, 0.0, 0.0])
     e2 = wall.up_tangent
     if rng.random() < p_off:
         ang = rng.uniform(0, 2 * np.pi)
-        off = rng.uniform(0.06, 0.12) * (np.cos(ang) * e1 + np.sin(ang) * e2)
+        d = rng.uniform(*off) * (np.cos(ang) * e1 + np.sin(ang) * e2)
     else:
-        off = rng.normal(0, 0.02, 2) @ np.vstack([e1, e2])
-    return centre + off + rng.uniform(0.01, 0.03) * wall.normal
+        d = rng.normal(0, 0.02, 2) @ np.vstack([e1, e2])
+    return centre + d + rng.uniform(0.01, 0.03) * wall.normal
 
 
 def _wall_point(
@@ -299,12 +369,12 @@ def _plan(
         here = all_pos[j]
     stops[-1] = (stops[-1][0], stops[-1][1], max(stops[-1][2], 1.2))
     # durations of the moves, then the grips stretched to the requested length
-    contacts = [_contact(rng, wall, c, cfg.p_off_centre) if h >= 0 else c for c, h, _ in stops]
+    contacts = [_contact(rng, wall, c, cfg.p_off_centre, cfg.off_centre) if h >= 0 else c for c, h, _ in stops]
     moves = []
     for a, b in zip(contacts[:-1], contacts[1:], strict=True):
         dist = float(np.linalg.norm(b - a))
         moves.append(float(np.clip(0.3 + 0.8 * dist + rng.normal(0, 0.15), 0.3, 2.0)))
-    grips = np.array([s[2] for s in stops])
+    grips = np.array([s[2] for s in stops]) * cfg.grip_scale
     if cfg.duration is not None:
         room = cfg.duration - sum(moves)
         if room > 0.5 * len(grips):
@@ -332,7 +402,7 @@ def _plan(
 
         def roll(r: np.ndarray) -> np.ndarray:
             axis = rng.normal(size=3)
-            return r @ _so3.exp(axis / np.linalg.norm(axis) * rng.uniform(0.0, cfg.grip_roll))
+            return r @ _exp(axis / np.linalg.norm(axis) * rng.uniform(0.0, cfg.grip_roll))
 
         if hold >= 0 and g > 1.2 and rng.random() < cfg.p_adjust:
             t_a = rng.uniform(0.4, g - 0.65)
@@ -342,7 +412,7 @@ def _plan(
             off = rng.normal(size=2)
             off = off / np.linalg.norm(off) * rng.uniform(0.02, 0.05)
             c2 = c + off[0] * np.array([1.0, 0, 0]) + off[1] * wall.up_tangent
-            r2 = r1 @ _so3.exp(rng.uniform(-0.25, 0.25, 3))
+            r2 = r1 @ _exp(rng.uniform(-0.25, 0.25, 3))
             segs.append(Segment(t, t + 0.25, "move", c, c2, r1, r2, hold=hold, adjust=True))
             t += 0.25
             r3 = roll(r2)
@@ -364,7 +434,9 @@ def _sway(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return amp, freq, phase
 
 
-def _pose(t: np.ndarray, segs: list[Segment], wall: Wall, sway: tuple) -> tuple[np.ndarray, np.ndarray]:
+def _pose(
+    t: np.ndarray, segs: list[Segment], wall: Wall, sway: tuple, lever: np.ndarray = LEVER
+) -> tuple[np.ndarray, np.ndarray]:
     """Sensor position (n, 3) [m] and sensor-to-map rotation (n, 3, 3) at times ``t`` [s]."""
     t = np.clip(t, segs[0].t0, None)
     n = t.size
@@ -378,7 +450,7 @@ def _pose(t: np.ndarray, segs: list[Segment], wall: Wall, sway: tuple) -> tuple[
         if s.kind == "grip":
             c[m] = s.c0
             u = np.clip((t[m] - s.t0) / (s.t1 - s.t0), 0.0, 1.0)
-            r0[m] = s.r0 @ _so3.exp(_min_jerk(u)[:, None] * _so3.log(s.r0.T @ s.r1))
+            r0[m] = s.r0 @ _exp(_min_jerk(u)[:, None] * _log(s.r0.T @ s.r1))
             if s.impact > 0:
                 tau = t[m] - s.t0
                 ring[m] = s.impact * np.exp(-tau / 0.012) * np.sin(2 * np.pi * 30.0 * tau)
@@ -386,13 +458,13 @@ def _pose(t: np.ndarray, segs: list[Segment], wall: Wall, sway: tuple) -> tuple[
             u = np.clip((t[m] - s.t0) / (s.t1 - s.t0), 0.0, 1.0)
             sj, b = _min_jerk(u), _bump(u)
             c[m] = s.c0 + sj[:, None] * (s.c1 - s.c0) + b[:, None] * s.bulge
-            d = _so3.log(s.r0.T @ s.r1)
-            r0[m] = s.r0 @ _so3.exp(sj[:, None] * d) @ _so3.exp(b[:, None] * s.wobble)
+            d = _log(s.r0.T @ s.r1)
+            r0[m] = s.r0 @ _exp(sj[:, None] * d) @ _exp(b[:, None] * s.wobble)
     amp, freq, phase = sway
     sw = (amp[None] * np.sin(2 * np.pi * freq[None] * t[:, None, None] + phase[None])).sum(axis=2)
     sw = sw + ring[:, None] * np.array([8.0, 5.0, 0.0])  # the slap also rings the hand (about 0.04 rad)
-    rot = r0 @ _so3.exp(sw)
-    p = c + rot @ LEVER - ring[:, None] * wall.normal
+    rot = r0 @ _exp(sw)
+    p = c + rot @ lever - ring[:, None] * wall.normal
     return p, rot
 
 
@@ -401,7 +473,7 @@ def _dipoles(rng: np.random.Generator, cfg: BoulderConfig, wall: Wall) -> list[t
     offset over the whole climbing area) and one or two local pieces close behind the panels."""
     out = []
     depths = [rng.uniform(1.5, 3.0)] + [rng.uniform(0.2, 0.4) for _ in range(int(rng.integers(1, 3)))]
-    levels = [rng.uniform(0.1, 0.35)] + [rng.uniform(*cfg.disturbance) for _ in depths[1:]]
+    levels = [rng.uniform(*cfg.disturbance_far)] + [rng.uniform(*cfg.disturbance) for _ in depths[1:]]
     for depth, level in zip(depths, levels, strict=True):
         x, z = rng.uniform(0.5, wall.width - 0.5), rng.uniform(1.0, wall.height - 0.5)
         where = wall.surface(x, z) - depth * wall.normal
@@ -419,6 +491,37 @@ def disturbance_field(p: np.ndarray, dipoles: list[tuple[np.ndarray, np.ndarray]
         rh = r / d
         out += (3 * (rh @ m)[:, None] * rh - m) / d**3
     return out
+
+
+def _hold_map(
+    routes: list[dict], all_pos: np.ndarray, field: np.ndarray, cfg: BoulderConfig, azimuth: float
+) -> tuple[pa.Table, dict]:
+    """The wall's hold map in the ``holds`` table format (docs/table-contract.md): one row per hold and
+    route, the start and top holds, the up axis, the reference field and gravity in the metadata."""
+    table = pa.table(
+        {
+            "route": schema.to_arrow("route", np.array([r["name"] for r in routes for _ in r["holds"]], dtype=object)),
+            "hold": schema.to_arrow("hold", np.concatenate([r["holds"] for r in routes]).astype(np.int32)),
+            "x": schema.to_arrow("x", all_pos[:, 0]),
+            "y": schema.to_arrow("y", all_pos[:, 1]),
+            "z": schema.to_arrow("z", all_pos[:, 2]),
+        }
+    )
+    meta = sfmeta.new_meta("holds")
+    meta["frame"] = {
+        "name": "wall",
+        "origin": [float(v) for v in cfg.site],
+        "azimuth_deg": float(azimuth),
+        "axes": "x right along the wall, y into the wall, z up",
+    }
+    meta["climbing"] = {
+        "up": "z",
+        "start_holds": {r["name"]: [int(v) for v in r["start"]] for r in routes},
+        "top_holds": {r["name"]: int(r["top"]) for r in routes},
+        "magnetic_field": [float(v) for v in field],
+        "gravity": float(cfg.gravity),
+    }
+    return table, meta
 
 
 def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
@@ -449,28 +552,36 @@ def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
     azimuth = float(rng.uniform(0, 360))
     m_w = _map_field(cfg, azimuth)
     dipoles = _dipoles(rng, cfg, wall)
+    rng2 = np.random.default_rng(np.random.SeedSequence([cfg.seed, 39]))  # the unit's extra errors
+    lever = np.asarray(cfg.lever, float) + rng2.normal(0.0, cfg.lever_spread, 3)
 
     dt = 1.0 / cfg.imu_rate
     n = int(np.floor(segs[-1].t1 / dt))
     t = np.arange(n + 1) * dt
     h = 1e-5
-    p, rot = _pose(t, segs, wall, sway)
-    v = (_pose(t + h, segs, wall, sway)[0] - _pose(t - h, segs, wall, sway)[0]) / (2 * h)
+    p, rot = _pose(t, segs, wall, sway, lever)
+    v = (_pose(t + h, segs, wall, sway, lever)[0] - _pose(t - h, segs, wall, sway, lever)[0]) / (2 * h)
     g_w = np.array([0.0, 0.0, -cfg.gravity])
-    gyr_true = _so3.log(np.swapaxes(rot[:-1], 1, 2) @ rot[1:]) / dt
+    gyr_true = _log(np.swapaxes(rot[:-1], 1, 2) @ rot[1:]) / dt
     acc_true = np.einsum("nji,nj->ni", rot[:-1], (v[1:] - v[:-1]) / dt - g_w)
     t, p, v, rot = t[:-1], p[:-1], v[:-1], rot[:-1]
     # a slap drives the instantaneous specific force beyond the range: the unit then
     # reports the clipped instantaneous value instead of a valid increment
     hh = 1e-4
-    a_inst = (_pose(t + hh, segs, wall, sway)[0] - 2 * p + _pose(t - hh, segs, wall, sway)[0]) / hh**2
+    a_inst = (_pose(t + hh, segs, wall, sway, lever)[0] - 2 * p + _pose(t - hh, segs, wall, sway, lever)[0]) / hh**2
     f_inst = np.einsum("nji,nj->ni", rot, a_inst - g_w)
     over = (np.abs(f_inst) >= cfg.acc_range).any(axis=1)
     acc_true[over] = f_inst[over]
-    m_gyr = np.diag(1 + rng.normal(0, cfg.gyr_scale, 3)) + _so3.hat(rng.normal(0, cfg.misalignment, 3))
-    m_acc = np.diag(1 + rng.normal(0, cfg.acc_scale, 3)) + _so3.hat(rng.normal(0, cfg.misalignment, 3))
+    m_gyr = np.diag(1 + rng.normal(0, cfg.gyr_scale, 3)) + skew(rng.normal(0, cfg.misalignment, 3))
+    m_acc = np.diag(1 + rng.normal(0, cfg.acc_scale, 3)) + skew(rng.normal(0, cfg.misalignment, 3))
     gyr = gyr_true @ m_gyr.T + rng.normal(0, cfg.gyr_bias, 3) + rng.normal(0, cfg.gyr_noise, gyr_true.shape)
     acc = acc_true @ m_acc.T + rng.normal(0, cfg.acc_bias, 3) + rng.normal(0, cfg.acc_noise, acc_true.shape)
+    # the unit warms on the hand (biases follow its temperature) and the gyro bias walks
+    dtemp = temperature_profile(t, 0.0, t[-1], 0.0, cfg.temp_rise, tau=60.0)
+    acc = acc + dtemp[:, None] * rng2.normal(0.0, cfg.acc_temp, 3)
+    gyr = gyr + dtemp[:, None] * rng2.normal(0.0, cfg.gyr_temp, 3)
+    if cfg.gyr_bias_walk > 0:
+        gyr = gyr + np.cumsum(rng2.normal(0.0, cfg.gyr_bias_walk * np.sqrt(dt), gyr.shape), axis=0)
     acc = np.clip(acc, -cfg.acc_range, cfg.acc_range)
     gyr = np.clip(gyr, -cfg.gyr_range, cfg.gyr_range)
     m_true = np.einsum("nji,nj->ni", rot, m_w + disturbance_field(p, dipoles))
@@ -479,7 +590,7 @@ def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
     e_amp = rng.uniform(0.01, 0.04, 3)
     e_f = rng.uniform(0.02, 0.1, 3)
     err = e_amp * np.sin(2 * np.pi * e_f * t[:, None] + rng.uniform(0, 2 * np.pi, 3))
-    q_dev = _so3.quat_from_matrix(_so3.exp(err) @ rot)
+    q_dev = _quat(_exp(err) @ rot)
 
     # truth labels
     grip = np.zeros(t.size, dtype=bool)
@@ -517,7 +628,7 @@ def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
     meta["units"] = {"mag_x": "1", "mag_y": "1", "mag_z": "1"}
     meta["climbing"] = {"route": route, "descent_time": float(descent), "hand": "right", "up": "z"}
 
-    q_bo = _so3.quat_from_matrix(np.swapaxes(rot, 1, 2))
+    q_bo = _quat(np.swapaxes(rot, 1, 2))
     tcols = {"t": t}
     for i, a in enumerate("xyz"):
         tcols[f"true_{a}"] = p[:, i]
@@ -539,17 +650,5 @@ def simulate_boulder(cfg: BoulderConfig | None = None) -> Boulder:
         "impacts": int(sum(1 for s in segs if s.impact > 0)),
     }
 
-    rows_route = [r["name"] for r in routes for _ in r["holds"]]
-    hold_ids = np.concatenate([r["holds"] for r in routes])
-    holds, holds_meta = holds_table(
-        rows_route,
-        hold_ids,
-        all_pos,
-        {r["name"]: r["start"] for r in routes},
-        top_holds={r["name"]: r["top"] for r in routes},
-        magnetic_field=m_w,
-        gravity=cfg.gravity,
-        origin=cfg.site,
-        azimuth_deg=azimuth,
-    )
+    holds, holds_meta = _hold_map(routes, all_pos, m_w, cfg, azimuth)
     return Boulder(session, truth, holds, meta, truth_meta, holds_meta, segs, route, start_hold, float(descent))

@@ -1,7 +1,7 @@
 """Lazy re-exports for the packages' entry modules (PEP 562), so ``import sportfusion.skijump`` stays cheap.
 
-A sport's ``__init__`` names its public functions and where they live; the defining module (and numba,
-scipy, OpenCV behind it) is imported on first use of the name, not when any submodule of the package is.
+A sport's ``__init__`` names its public functions and where they live; the defining module (and scipy,
+OpenCV behind it) is imported on first use of the name, not when any submodule of the package is.
 """
 
 from __future__ import annotations

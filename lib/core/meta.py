@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import os
 from datetime import UTC, datetime
 from typing import Any
 
@@ -146,14 +147,65 @@ def validate_meta(meta: Any) -> dict[str, Any]:
     return meta
 
 
+#: Largest ``sportfusion`` metadata JSON read [bytes] (provenance of a long pipeline is a few kB; a table
+#: with 80 MB of it took 49 s and 1.4 GB before this limit).  Override: SPORTFUSION_MAX_META_BYTES.
+MAX_META_BYTES = 8 * 1024**2
+#: Deepest nesting of objects and lists in the metadata (the contract's deepest is 4).
+MAX_META_DEPTH = 64
+#: Largest integer magnitude in the metadata (a 64-bit integer; Python's own limit is 4300 digits).
+MAX_META_INT = 2**63
+
+
+def max_meta_bytes() -> int:
+    """:data:`MAX_META_BYTES`, or ``SPORTFUSION_MAX_META_BYTES`` where set."""
+    try:
+        return max(int(float(os.environ.get("SPORTFUSION_MAX_META_BYTES", MAX_META_BYTES))), 1024)
+    except (ValueError, OverflowError):
+        return MAX_META_BYTES
+
+
+def max_footer_bytes() -> int:
+    """Largest Parquet footer read [bytes]: the metadata is in it twice (as JSON and inside the Arrow schema,
+    base64), plus the schema and the row groups' statistics."""
+    return 3 * max_meta_bytes() + 16 * 1024**2
+
+
+def _check_shape(obj: Any) -> None:
+    """Refuse nesting deeper than :data:`MAX_META_DEPTH` and integers beyond :data:`MAX_META_INT` (iteratively)."""
+    stack = [(obj, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            if depth > MAX_META_DEPTH:
+                raise InputError(f"metadata 'sportfusion' is nested more than {MAX_META_DEPTH} levels deep; refused")
+            stack.extend((v, depth + 1) for v in (item.values() if isinstance(item, dict) else item))
+        elif isinstance(item, int) and not isinstance(item, bool) and abs(item) > MAX_META_INT:
+            raise InputError(f"metadata 'sportfusion' holds an integer of {len(str(abs(item)))} digits; refused")
+
+
 def decode(raw: bytes | None) -> dict[str, Any]:
-    """Decode and validate the raw metadata value of key ``sportfusion``."""
+    """Decode and validate the raw metadata value of key ``sportfusion``.
+
+    Bounded: at most :func:`max_meta_bytes` bytes, :data:`MAX_META_DEPTH` levels, integers within
+    :data:`MAX_META_INT`; each refused in one line (:class:`InputError`).
+    """
     if raw is None:
         raise InputError("the table has no 'sportfusion' metadata; expected a table written by a sportfusion tool")
+    cap = max_meta_bytes()
+    if len(raw) > cap:
+        raise InputError(
+            f"metadata 'sportfusion' is {len(raw) / 1024**2:.1f} MiB of JSON; refused above "
+            f"{cap / 1024**2:.0f} MiB (SPORTFUSION_MAX_META_BYTES)"
+        )
     try:
         meta = json.loads(raw)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"metadata 'sportfusion' is not valid JSON ({exc})") from exc
+    except RecursionError as exc:
+        raise InputError(f"metadata 'sportfusion' is nested more than {MAX_META_DEPTH} levels deep; refused") from exc
+    except ValueError as exc:  # an integer beyond Python's digit limit
+        raise InputError(f"metadata 'sportfusion' holds a number that cannot be read ({exc}); refused") from exc
+    _check_shape(meta)
     return validate_meta(meta)
 
 

@@ -1,13 +1,11 @@
-"""Which compiled smoothing-spline kernels run: the C extension when it is built, else numba.
+"""The smoothing spline's compiled kernels: :mod:`sportfusion.estimators._banded_c` (C), when it is built.
 
-:mod:`sportfusion.estimators._banded_c` (C, built by ``setup.py`` as an optional extension) imports
-in about a millisecond; numba's import and the first load of a cached kernel cost about a second
-of CPU, scipy.linalg's import about 0.3 s -- more than the whole spline-smooth compute at 1e6
-epochs.  Without the extension (no C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the
-environment) the numba kernels of :mod:`sportfusion.estimators._banded_kernels` and scipy's banded
-solve do the same work, with the same results to rounding.
-
-The functions here allocate the outputs and call whichever kernel is available.
+The C extension (built by ``setup.py`` as an optional extension) imports in about a millisecond.  The
+functions here allocate the outputs and call it; each returns None where it is not built (no C compiler
+at install time, or ``SPORTFUSION_NATIVE=0`` in the environment), and the caller in
+:mod:`sportfusion.estimators.spline` then runs its numpy reference (``_ldl_inverse_bands_py``,
+``_minv_diag_py``, ``NaturalCubicSpline.evaluate``'s numpy formulas, scipy's banded solve): the same
+results to rounding, slower (docs/speed.md).
 """
 
 from __future__ import annotations
@@ -65,37 +63,35 @@ def reinsch(
     return (g, gam, m) if diag else (g, gam)
 
 
-def minv_diag(h: np.ndarray, winv: np.ndarray, alpha: float) -> np.ndarray:
+def minv_diag(h: np.ndarray, winv: np.ndarray, alpha: float) -> np.ndarray | None:
     """``diag((W + K)^{-1})`` for ``W = diag(1/winv)`` (float or complex), ``K = alpha Q R^{-1} Q^T``; O(n).
 
-    ``h`` (n-1,) knot spacings [s]; the result has ``winv``'s dtype (complex for the complex step).
+    ``h`` (n-1,) knot spacings [s]; the result has ``winv``'s dtype (complex for the complex step).  None
+    without the C extension or with fewer than 3 knots (the caller's numpy reference then runs).
     """
     mod = native()
     cplx = np.iscomplexobj(winv)
+    if mod is None or np.size(winv) < 3:
+        return None
     winv = np.ascontiguousarray(winv, dtype=np.complex128 if cplx else np.float64)
-    if mod is None or winv.size < 3:
-        from sportfusion.estimators._banded_kernels import minv_diag as kernel
-
-        return kernel(_f64(h), winv, float(alpha))
     out = np.empty_like(winv)
     mod.minv_diag(cplx, _f64(h), winv, float(alpha), out)
     return out
 
 
-def inverse_bands(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def inverse_bands(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Central bands ``Z[i, i], Z[i, i+1], Z[i, i+2]`` of ``B^{-1}`` for a symmetric pentadiagonal ``B``.
 
     ``a0`` is the diagonal, ``a1[i] = B[i+1, i]``, ``a2[i] = B[i+2, i]`` (all length m; real or
     complex symmetric, no conjugation).  LDL^T without pivoting, then the Hutchinson-de Hoog recursion.
+    None without the C extension.
     """
     mod = native()
+    if mod is None:
+        return None
     cplx = any(np.iscomplexobj(a) for a in (a0, a1, a2))
     dt = np.complex128 if cplx else np.float64
     a0, a1, a2 = (np.ascontiguousarray(a, dtype=dt) for a in (a0, a1, a2))
-    if mod is None:
-        from sportfusion.estimators._banded_kernels import ldl_inverse_bands
-
-        return ldl_inverse_bands(a0, a1, a2)
     m = a0.size
     z = [np.empty(m + 2, dt) for _ in range(3)]
     mod.inverse_bands(cplx, a0, a1, a2, *z)
@@ -105,15 +101,11 @@ def inverse_bands(a0: np.ndarray, a1: np.ndarray, a2: np.ndarray) -> tuple[np.nd
 def evaluate(t: np.ndarray, g: np.ndarray, c: np.ndarray, tq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Value, first and second derivative ((m, d) each) of the natural cubic spline at ``tq`` [s] (n >= 2 knots).
 
-    From the C kernel the arrays are column-major (Fortran order): each coordinate is contiguous,
-    so a column goes into an Arrow table without a copy.
+    The arrays are column-major (Fortran order): each coordinate is contiguous, so a column goes into an
+    Arrow table without a copy.  Call only where :func:`native` is not None.
     """
     mod = native()
     g, c, tq = _f64(g), _f64(c), _f64(tq)
-    if mod is None:
-        from sportfusion.estimators._banded_kernels import spline_eval
-
-        return spline_eval(_f64(t), g, c, tq)
     shape = (g.shape[1], tq.size)
     val, d1, d2 = np.empty(shape), np.empty(shape), np.empty(shape)
     mod.evaluate(_f64(t), g, c, tq, val, d1, d2, True)
@@ -123,13 +115,11 @@ def evaluate(t: np.ndarray, g: np.ndarray, c: np.ndarray, tq: np.ndarray) -> tup
 def arc_length(
     t: np.ndarray, g: np.ndarray, c: np.ndarray, tq: np.ndarray, xg: np.ndarray, wg: np.ndarray
 ) -> np.ndarray:
-    """Distance [m] along the spline from ``t[0]`` to each ``tq`` (Gauss-Legendre nodes ``xg``, weights ``wg``)."""
+    """Distance [m] along the spline from ``t[0]`` to each ``tq`` (Gauss-Legendre nodes ``xg``, weights ``wg``).
+
+    Call only where :func:`native` is not None."""
     mod = native()
     g, c, tq = _f64(g), _f64(c), _f64(tq)
-    if mod is None:
-        from sportfusion.estimators._banded_kernels import arc_length as kernel
-
-        return kernel(_f64(t), g, c, tq, _f64(xg), _f64(wg))
     out = np.empty(tq.size)
     mod.arc_length(_f64(t), g, c, tq, _f64(xg), _f64(wg), out)
     return out

@@ -1,14 +1,16 @@
-/* Compiled kernels of the smoothing spline (sportfusion.estimators.spline), as a C extension.
+/* Compiled kernels of the smoothing spline (sportfusion.estimators.spline) and of the block-tridiagonal
+ * solves (sportfusion.estimators.blocktri), as a C extension: the fast path.
  *
- * Why C and not numba here: a whole spline-smooth command at 1e6 epochs costs about as much as
- * numba's import plus the first load of a cached kernel (about 1 s of CPU) and scipy.linalg's
- * import (0.3 s); this module imports in about a millisecond.  The numba kernels
- * (_banded_kernels.py) and scipy's banded solve stay as the fallback when this extension is not
- * built (setup.py builds it as optional), and as the references the tests compare it with.
+ * Each kernel mirrors a numpy function, named in its comment block below; those stay the readable reference,
+ * the fallback where this extension is not built (setup.py builds it as optional; the numpy path is
+ * slower, docs/speed.md) and what the tests compare it with (tests/test_banded_native.py,
+ * tests/test_fast_paths.py, tests/test_blocktri.py).  The spline's kernels: the Reinsch solve (banded
+ * LDL^T, several right-hand sides; spline._reinsch), the central bands of B^-1 (spline._ldl_inverse_bands_py),
+ * diag((W + K)^-1) (spline._minv_diag_py), the spline's evaluation (NaturalCubicSpline.evaluate) and arc
+ * length (NaturalCubicSpline.arc_length).
  *
  * Arrays travel through the buffer protocol (no numpy headers needed to build): the Python
- * wrappers in spline.py pass C-contiguous float64 (or complex128) arrays and preallocated outputs.
- * Same formulas, same operation order as the numba kernels.
+ * wrappers in _banded.py pass C-contiguous float64 (or complex128) arrays and preallocated outputs.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -76,7 +78,7 @@ static void release(Buf *bufs, int k) {
     }
 
 /* LDL^T of the pentadiagonal B without pivoting, in place: a0 -> d, a1 -> l1 (L[i+1, i]),
- * a2 -> l2 (L[i+2, i]); as _banded_kernels.ldl_inverse_bands. */
+ * a2 -> l2 (L[i+2, i]); as spline._ldl_inverse_bands_py (its first loop). */
 #define DEFINE_LDL(NAME, T)                                                                                        \
     static void NAME(Py_ssize_t m, T *d, T *l1, T *l2) {                                                           \
         for (Py_ssize_t i = 0; i < m; i++) {                                                                       \
@@ -108,7 +110,7 @@ static void release(Buf *bufs, int k) {
         }                                                                                                          \
     }
 
-/* diag((W + K)^{-1}) = winv - alpha winv^2 diag(Q Z Q^T), as _banded_kernels.qzqt_diag / minv_diag.
+/* diag((W + K)^{-1}) = winv - alpha winv^2 diag(Q Z Q^T), as spline._minv_diag_py (spline._qzqt_diag_py).
  * Row i of diag(Q Z Q^T) needs Z's bands at interior rows i-2 .. i only, so it is formed inside the
  * backward recursion (row i + 2 once Z's row i is known) from a rolling window: no Z arrays. */
 #define DEFINE_MINV(NAME, T, BANDS, LDL)                                                                           \
@@ -492,7 +494,7 @@ static const char doc_arc_length[] =
     "arc_length(t, g, c, tq, xg, wg, out)\n\n"
     "Curvilinear distance [m] along the spline from t[0] to each tq (out (m,) float64, written): the\n"
     "speed |S'| integrated by Gauss-Legendre (nodes xg, weights wg on [-1, 1]) on every knot interval\n"
-    "and on the partial interval up to tq.  Same sums as _banded_kernels.arc_length.";
+    "and on the partial interval up to tq.  Same sums as NaturalCubicSpline.arc_length.";
 
 static PyObject *py_arc_length(PyObject *self, PyObject *args) {
     PyObject *o[7];
@@ -553,6 +555,12 @@ done:
 
 /* ---- block-tridiagonal SPD systems (sportfusion.estimators.blocktri) ------------------------- */
 
+/* bt_factor / bt_solve / bt_diag_inverse: blocktri.factor, solve and diagonal_of_inverse by block Cholesky.
+ * Their numpy reference is the same functions without this extension: odd-even cyclic reduction (batched b x b
+ * products, O(log n) array operations) and its selected inversion -- the same system solved in another order
+ * of elimination, equal to rounding (tests/test_blocktri.py runs both against dense linear algebra on the same
+ * inputs). */
+
 /* A with diagonal blocks D_k and A[k, k+1] = E_k (b x b, row-major) as A = L L^T, L block lower bidiagonal
  * with diagonal blocks L_k (lower Cholesky factors of the Schur complements S_k = D_k - W_k-1^T W_k-1) and
  * sub-diagonal blocks W_k^T, W_k = L_k^-1 E_k.  Sequential, O(n b^3). */
@@ -608,7 +616,7 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
     const int bb = b * b;
     for (Py_ssize_t k = 0; k < n; k++) {
         double *lk = l + k * bb;
-        memcpy(lk, d + k * bb, bb * sizeof(double));
+        if (lk != d + k * bb) memcpy(lk, d + k * bb, bb * sizeof(double)); /* l may be d itself (in place) */
         if (k > 0) { /* S_k = D_k - W^T W (lower triangle used) */
             const double *wp = w + (k - 1) * bb;
             for (int i = 0; i < b; i++)
@@ -620,7 +628,7 @@ static Py_ssize_t bt_factor(Py_ssize_t n, int b, const double *d, const double *
         }
         if (bt_chol(lk, b) < 0) return k;
         if (k + 1 < n) {
-            memcpy(w + k * bb, e + k * bb, bb * sizeof(double));
+            if (w != e) memcpy(w + k * bb, e + k * bb, bb * sizeof(double)); /* w may be e itself */
             bt_fwd(lk, b, w + k * bb, b);
         }
     }

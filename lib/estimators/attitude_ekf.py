@@ -89,6 +89,10 @@ from sportfusion.core.stats import median
 from sportfusion.estimators import blocktri
 from sportfusion.estimators.kalman import Measurement, ekf_rts
 
+#: Rows of the per-sample terms of the batch smoother's normal equations formed at a time (bounds the
+#: temporaries: ~1 kB a row each; the result does not depend on it).
+CHUNK = 1 << 14
+
 __all__ = [
     "GyroAttitudeResult",
     "gyro_vector_smoother",
@@ -355,9 +359,6 @@ def _batch(
     observation must be unit vectors."""
     N = body.shape[0]
     dt = np.diff(t)
-    Wp = np.zeros((N - 1, 6, 6))  # inverse process noise per step
-    Wp[:, :3, :3] = np.eye(3) / (qn * dt)[:, None, None]
-    Wp[:, 3:, 3:] = np.eye(3) / (bn * dt)[:, None, None]
     P0i = np.linalg.inv(P0)
     winv = np.where(use, 1.0 / np.where(use, var, 1.0), 0.0)  # (N, m) inverse variances, 0 when unused
     q = quat_normalize(q_init)
@@ -370,42 +371,54 @@ def _batch(
         raw = np.where(use[:, biased, None], body[:, biased], 0.0)  # (N, k, 3)
         wb = winv[:, biased].copy()
         winv[:, biased] = 0.0  # the biased observations are added below
+    # A long record's memory is the normal equations' blocks and their factorisation (~1.5 kB a sample at
+    # the peak): the last iteration's factorisation is dropped before the next system is built, the system's
+    # blocks once they are factorised, and the per-sample terms are formed CHUNK rows at a time
+    f: blocktri.CyclicReduction | blocktri.BlockCholesky | blocktri.Bordered | None = None
     iterations, converged = 0, False
     while iterations < max_iter and not converged:
         iterations += 1
+        f = None
         D = np.zeros((N, 6, 6))
+        E = np.empty((max(N - 1, 0), 6, 6))
         g = np.zeros((N, 6))  # right-hand side -J^T W r
+        border = np.zeros((N, 6, 3 * nb)) if nb else None
         # prior on step 0
         r0 = att_boxminus(np.concatenate((q[0], b[0])), x0)
         D[0] += P0i
         g[0] -= P0i @ r0
-        # propagation
-        res, Phi = process_residuals(q, b, t, gyr, w_ie_ned)
-        PtW = np.swapaxes(Phi, 1, 2) @ Wp
-        D[:-1] += PtW @ Phi
-        D[1:] += Wp
-        E = -PtW
-        g[:-1] += np.einsum("nij,nj->ni", PtW, res)
-        g[1:] -= np.einsum("nij,nj->ni", Wp, res)
-        # vector observations: r = z - M r_ref, H = [[M r_ref]x, 0]
-        M = dcm_from_quat(q)
-        h = np.einsum("nij,nkj->nki", M, ref)  # (N, m, 3)
-        r = np.where(use[:, :, None], body - h, 0.0)
-        hh = np.einsum("nki,nki->nk", h, h)
-        # H^T H = [h]x^T [h]x = |h|^2 I - h h^T ; H^T r = [h]x^T r = r x h
-        D[:, :3, :3] += np.einsum("nk,ij->nij", winv * hh, np.eye(3)) - np.einsum("nk,nki,nkj->nij", winv, h, h)
-        g[:, :3] += np.einsum("nk,nki->ni", winv, np.cross(r, h))
-        if not nb:
-            f = blocktri.factor(D, E)
-            dx = blocktri.solve(f, g)
-        else:
+        # propagation, steps s..e-1 of each chunk (rows s..e)
+        for s in range(0, N - 1, CHUNK):
+            e = min(s + CHUNK, N - 1)
+            res, Phi = process_residuals(q[s : e + 1], b[s : e + 1], t[s : e + 1], gyr[s : e + 1], w_ie_ned)
+            Wp = np.zeros((e - s, 6, 6))  # inverse process noise per step
+            Wp[:, :3, :3] = np.eye(3) / (qn * dt[s:e])[:, None, None]
+            Wp[:, 3:, 3:] = np.eye(3) / (bn * dt[s:e])[:, None, None]
+            PtW = np.swapaxes(Phi, 1, 2) @ Wp
+            D[s:e] += PtW @ Phi
+            D[s + 1 : e + 1] += Wp
+            np.negative(PtW, out=E[s:e])
+            g[s:e] += np.einsum("nij,nj->ni", PtW, res)
+            g[s + 1 : e + 1] -= np.einsum("nij,nj->ni", Wp, res)
+        corner = Pbi.copy() if nb else None
+        gc = -Pbi @ (beta - beta0).ravel() if nb else None
+        for s in range(0, N, CHUNK):
+            e = min(s + CHUNK, N)
+            # vector observations: r = z - M r_ref, H = [[M r_ref]x, 0]
+            M = dcm_from_quat(q[s:e])
+            h = np.einsum("nij,nkj->nki", M, ref[s:e])  # (n, m, 3)
+            r = np.where(use[s:e, :, None], body[s:e] - h, 0.0)
+            hh = np.einsum("nki,nki->nk", h, h)
+            wi = winv[s:e]
+            # H^T H = [h]x^T [h]x = |h|^2 I - h h^T ; H^T r = [h]x^T r = r x h
+            D[s:e, :3, :3] += np.einsum("nk,ij->nij", wi * hh, np.eye(3)) - np.einsum("nk,nki,nkj->nij", wi, h, h)
+            g[s:e, :3] += np.einsum("nk,nki->ni", wi, np.cross(r, h))
+            if not nb:
+                continue
             # each bias: H = [H_theta, H_beta] (att_observe_biased), its 3 columns border every step
-            border = np.zeros((N, 6, 3 * nb))
-            corner = Pbi.copy()
-            gc = -Pbi @ (beta - beta0).ravel()
-            eye = np.broadcast_to(np.eye(3), (N, 3, 3))
+            eye = np.broadcast_to(np.eye(3), (e - s, 3, 3))
             for j, i in enumerate(biased):
-                v = raw[:, j] - beta[j]
+                v = raw[s:e, j] - beta[j]
                 hj = h[:, i]
                 if i in direction:
                     rho = np.linalg.norm(v, axis=1)
@@ -417,24 +430,32 @@ def _batch(
                     rb = v - hj
                     Ht = skew(hj)
                     Hb = eye
-                w = wb[:, j]
+                w = wb[s:e, j]
                 HtW = np.swapaxes(Ht, 1, 2) * w[:, None, None]
-                D[:, :3, :3] += HtW @ Ht
-                g[:, :3] += np.einsum("nij,nj->ni", HtW, rb)
+                D[s:e, :3, :3] += HtW @ Ht
+                g[s:e, :3] += np.einsum("nij,nj->ni", HtW, rb)
                 c = slice(3 * j, 3 * j + 3)
-                border[:, :3, c] = HtW @ Hb
-                corner[c, c] += np.einsum("n,nki,nkj->ij", w, Hb, Hb)
-                gc[c] += np.einsum("n,nki,nk->i", w, Hb, rb)
-            f = blocktri.factor_bordered(D, E, border, corner)
-            dx, dbeta = blocktri.solve_bordered(f, g, gc)
+                border[s:e, :3, c] = HtW @ Hb  # type: ignore[index]
+                corner[c, c] += np.einsum("n,nki,nkj->ij", w, Hb, Hb)  # type: ignore[index]
+                gc[c] += np.einsum("n,nki,nk->i", w, Hb, rb)  # type: ignore[index]
+        tri = blocktri.factor(D, E, overwrite=True)  # (its factors in D and E's memory, where built in C)
+        del D, E
+        if not nb:
+            f = tri
+            dx = blocktri.solve(f, g)
+        else:
+            f = blocktri.bordered(tri, border, corner)  # type: ignore[arg-type]
+            del border
+            dx, dbeta = blocktri.solve_bordered(f, g, gc)  # type: ignore[arg-type]
             beta = beta + dbeta.reshape(nb, 3)
+        del tri, g
         q = quat_normalize(quat_multiply(q, quat_from_rotvec(dx[:, :3])))
         b = b + dx[:, 3:]
         converged = float(np.max(np.abs(dx[:, :3]))) < tol
     q = np.where(q[:, :1] < 0, -q, q)
     if not nb:
-        return q, b, blocktri.diagonal_of_inverse(f), iterations, converged, None, None
-    cov, cov_beta, _ = blocktri.diagonal_of_inverse_bordered(f)
+        return q, b, blocktri.diagonal_of_inverse(f), iterations, converged, None, None  # type: ignore[arg-type]
+    cov, cov_beta, _ = blocktri.diagonal_of_inverse_bordered(f, border=False)  # type: ignore[arg-type]
     return q, b, cov, iterations, converged, beta, cov_beta
 
 
@@ -562,7 +583,9 @@ def gyro_vector_smoother(
                     with np.errstate(invalid="ignore", divide="ignore"):
                         obs[:, i] /= np.linalg.norm(obs[:, i], axis=-1, keepdims=True)
         res = {names[i]: np.where(use[:, i, None], obs[:, i] - h[:, i], np.nan) for i in range(m)}
-        out = GyroAttitudeResult(q, b, d[:, :3], cov[:, :3, :3], d[:, 3:], None, res, it, ok)
+        cov_theta = np.ascontiguousarray(cov[:, :3, :3])  # not a view: the (N, 6, 6) blocks go
+        del cov
+        out = GyroAttitudeResult(q, b, d[:, :3], cov_theta, d[:, 3:], None, res, it, ok)
         if beta is not None and cov_beta is not None:
             sb = np.sqrt(np.maximum(np.diag(cov_beta), 0.0))
             out.obs_bias = {i: beta[j] for j, i in enumerate(biased)}

@@ -58,6 +58,7 @@ __all__ = [
     "solve",
     "diagonal_of_inverse",
     "factor_bordered",
+    "bordered",
     "solve_bordered",
     "diagonal_of_inverse_bordered",
 ]
@@ -101,7 +102,7 @@ def _spd_inverse(d: np.ndarray) -> np.ndarray:
     return _t(li) @ li
 
 
-def factor(d: np.ndarray, e: np.ndarray) -> CyclicReduction | BlockCholesky:
+def factor(d: np.ndarray, e: np.ndarray, overwrite: bool = False) -> CyclicReduction | BlockCholesky:
     """Cyclic reduction of the symmetric positive definite block-tridiagonal matrix (``D``, ``E``).
 
     Where the C extension is built (``sportfusion.estimators._banded_c``) the factorisation is instead a
@@ -114,6 +115,10 @@ def factor(d: np.ndarray, e: np.ndarray) -> CyclicReduction | BlockCholesky:
         Diagonal blocks (symmetric).
     e : numpy.ndarray, shape (n - 1, b, b)
         Upper off-diagonal blocks ``A[k, k+1]``.
+
+    overwrite : bool
+        The block Cholesky may write its factors over ``d`` and ``e`` (no second pair of arrays as long as
+        the matrix: a long system's memory); they are garbage afterwards.
 
     Returns
     -------
@@ -131,8 +136,9 @@ def factor(d: np.ndarray, e: np.ndarray) -> CyclicReduction | BlockCholesky:
         raise ValueError("no blocks")
     ext = _native()
     if ext is not None and b <= 32:
-        lf = np.empty_like(d)
-        w = np.empty((max(n - 1, 0), b, b))
+        in_place = overwrite and d.flags.writeable and e.flags.writeable and e.shape[0] == max(n - 1, 0)
+        lf = d if in_place else np.empty_like(d)
+        w = e if in_place else np.empty((max(n - 1, 0), b, b))
         bad = ext.bt_factor(n, b, d, e, lf, w)
         if bad >= 0:
             raise np.linalg.LinAlgError(f"block {bad} of the block-tridiagonal matrix: not positive definite")
@@ -241,8 +247,13 @@ def factor_bordered(d: np.ndarray, e: np.ndarray, border: np.ndarray, corner: np
     numpy.linalg.LinAlgError
         When the matrix is not positive definite.
     """
+    return bordered(factor(d, e), border, corner)
+
+
+def bordered(tri: CyclicReduction | BlockCholesky, border: np.ndarray, corner: np.ndarray) -> Bordered:
+    """:func:`factor_bordered` from the factorised ``A`` (:func:`factor`): the caller may drop ``d`` and ``e``
+    before the border's solves (a long system's memory)."""
     border = np.asarray(border, dtype=np.float64)
-    tri = factor(d, e)
     y = solve(tri, border)
     s = np.asarray(corner, dtype=np.float64) - np.einsum("nbi,nbj->ij", border, y)
     s = 0.5 * (s + s.T)
@@ -257,7 +268,14 @@ def solve_bordered(f: Bordered, r: np.ndarray, rc: np.ndarray) -> tuple[np.ndarr
     return xa - np.einsum("nbi,i->nb", f.y, xc), xc
 
 
-def diagonal_of_inverse_bordered(f: Bordered) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Blocks of ``[[A, B], [B^T, C]]^-1``: the diagonal (n, b, b), the corner (c, c) and the border (n, b, c)."""
-    ys = f.y @ f.s_inv
-    return diagonal_of_inverse(f.tri) + ys @ _t(f.y), f.s_inv, -ys
+def diagonal_of_inverse_bordered(f: Bordered, border: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Blocks of ``[[A, B], [B^T, C]]^-1``: the diagonal (n, b, b), the corner (c, c) and the border (n, b, c)
+    (None with ``border=False``: the diagonal alone is then formed without an (n, b, c) temporary)."""
+    diag = diagonal_of_inverse(f.tri)
+    if diag is getattr(f.tri, "last", None):
+        diag = diag.copy()  # (one block: the factorisation's own array)
+    step = 1 << 14
+    for s in range(0, diag.shape[0], step):  # + Y S^-1 Y^T, a chunk at a time
+        ys = f.y[s : s + step] @ f.s_inv
+        diag[s : s + step] += ys @ _t(f.y[s : s + step])
+    return diag, f.s_inv, (-(f.y @ f.s_inv) if border else None)

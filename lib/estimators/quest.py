@@ -29,9 +29,6 @@ import math
 
 import numpy as np
 
-# from this many samples on, QUEST runs compiled (numba, loaded on first use); below, numpy
-_COMPILED_FROM = 20_000
-
 
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
@@ -108,11 +105,6 @@ def quest(
     if n == 1:  # one attitude (an alignment): the same steps on Python floats, ~20x less overhead than arrays
         q1, loss1 = _quest_one(b[0], r[0] if r.ndim == 3 else r, a, newton_steps)
         return q1[None], np.array([loss1])
-    if n >= _COMPILED_FROM:
-        from sportfusion.estimators._quest_kernel import quest_batch
-
-        rr = r[None] if r.ndim == 2 else r
-        return quest_batch(np.ascontiguousarray(b), np.ascontiguousarray(rr), a, int(newton_steps))
     q = np.empty((n, 4))
     loss = np.empty(n)
     for s in range(0, n, chunk):

@@ -99,7 +99,7 @@ class NaturalCubicSpline:
         t, g, c = self.t, self.g, self.gamma
         tq = np.asarray(tq, dtype=float)
         n = t.size
-        if n > 1 and tq.ndim == 1 and (tq.size >= _COMPILED_FROM or _banded.native() is not None):
+        if n > 1 and tq.ndim == 1 and _banded.native() is not None:
             return _banded.evaluate(t, g, c, tq)
         if n == 1:
             z = np.zeros((tq.size, g.shape[1]))
@@ -134,7 +134,7 @@ class NaturalCubicSpline:
         t = self.t
         xg, wg = np.polynomial.legendre.leggauss(5)
         tq = np.asarray(tq, dtype=float)
-        if t.size > 1 and tq.ndim == 1 and (max(tq.size, t.size) >= _COMPILED_FROM or _banded.native() is not None):
+        if t.size > 1 and tq.ndim == 1 and _banded.native() is not None:
             return _banded.arc_length(t, self.g, self.gamma, tq, xg, wg)
 
         def integral(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -147,11 +147,6 @@ class NaturalCubicSpline:
         tq = np.asarray(tq, dtype=float)
         k = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, t.size - 2)
         return cum[k] + integral(t[k], tq)
-
-
-# with the C extension evaluation and arc length always run compiled; without it, from this many points
-# on (numba, loaded on first use), below in numpy (no numba import for small calls)
-_COMPILED_FROM = 20_000
 
 
 @dataclass
@@ -222,8 +217,9 @@ def _line_fit(t: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def _ldl_inverse_bands(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), compiled (C or numba): O(m)."""
-    return _banded.inverse_bands(ab[0], ab[1], ab[2])
+    """Central bands of ``B^{-1}`` (see :func:`_ldl_inverse_bands_py`), in C where it is built: O(m)."""
+    z = _banded.inverse_bands(ab[0], ab[1], ab[2])
+    return z if z is not None else _ldl_inverse_bands_py(ab)
 
 
 def _ldl_inverse_bands_py(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -268,13 +264,6 @@ def _ldl_inverse_bands_py(ab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     return np.array(z0[:m]), np.array(z1[:m]), np.array(z2[:m])
 
 
-def _qzqt_diag(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
-    """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots); compiled."""
-    from sportfusion.estimators._banded_kernels import qzqt_diag
-
-    return qzqt_diag(np.ascontiguousarray(h, float), z0, z1, z2)
-
-
 def _qzqt_diag_py(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> np.ndarray:
     """``diag(Q Z Q^T)`` (length n) from the central bands of the symmetric ``Z`` (n-2 interior knots)."""
     n = h.size + 1
@@ -306,8 +295,9 @@ def _qzqt_diag_py(h: np.ndarray, z0: np.ndarray, z1: np.ndarray, z2: np.ndarray)
 
 
 def _minv_diag(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:
-    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); compiled (C or numba), O(n)."""
-    return _banded.minv_diag(h, 1.0 / w, alpha)
+    """``diag((W + K)^{-1})`` with ``K = alpha Q R^{-1} Q^T`` (complex ``w`` allowed); in C where it is built, O(n)."""
+    m = _banded.minv_diag(h, 1.0 / w, alpha)
+    return m if m is not None else _minv_diag_py(h, w, alpha)
 
 
 def _minv_diag_py(h: np.ndarray, w: np.ndarray, alpha: float) -> np.ndarray:

@@ -227,6 +227,13 @@ def errors(
         )
     err: dict[str, np.ndarray] = {}
     pos = ("gnss_x", "gnss_y", "gnss_z") if gnss else ("x", "y", "z")
+    lacking = [(f"true_{n}", c) for n, c in zip("xyz", pos, strict=True) if c in est.column_names]
+    lacking = [(n, c) for n, c in lacking if n not in truth.column_names]
+    if lacking:  # an error left out of the table without a word would read as "no error"
+        raise InputError(
+            f"the truth lacks {', '.join(n for n, _ in lacking)} (the estimate has {', '.join(c for _, c in lacking)}); "
+            "expected the truth table written by simulate --truth"
+        )
     for name, col in zip(("x", "y", "z"), pos, strict=True):
         e, tr = _col(est, col), _col(truth, f"true_{name}")
         if e is not None and tr is not None:

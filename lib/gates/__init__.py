@@ -8,8 +8,10 @@ Entry points (imported lazily); tables follow the session contract (SI units):
   smoother with the gates as anchors: position [m], velocity [m/s], attitude [rad] and per-turn figures;
 * :func:`simulate_gates` -- truth, a sacrum IMU with magnetometer and the gates' survey.
 
-Modules: ``magnet`` (dipole model, calibration), ``crossings``, ``anchors`` (matching), ``inertial``
-(strapdown, static windows), ``eks`` (the smoother), ``pipeline`` (over a session), ``plots``, ``sim``.
+Modules: ``magnet`` (dipole model, calibration), ``crossings``, ``anchors`` (the paper's relative anchors and
+matching), ``passfit`` (a magnet placed by a fit of the whole pass), ``alignment`` (crossings aligned with the
+survey as one sequence), ``inertial`` (strapdown, static windows), ``eks`` (the smoother), ``pipeline`` (over a
+session), ``plots``; ``sim`` and ``sim_sensors`` (the simulator, written apart from all of these).
 """
 
 from sportfusion.core.exports import lazy_exports

@@ -18,6 +18,12 @@
   higher one; its height is refined with a
   parabola through the logarithm of the excess (:func:`peak_vertex`), which
   recovers most of what the 125 Hz sampling misses.
+* With the three gyro axes the field is also carried into a frame fixed to the ground (the gyro
+  integrated; over the few seconds of the background window its drift is a fraction of a degree) and
+  its anomaly ``|B - B_background| / |B_background|`` (the background a moving median per component) is
+  searched the same way.  A magnet buried north pole up -- or tilted, or passed beside at a low
+  elevation -- lowers ``|B|`` where it is strongest, a dip the intensity peaks miss; its anomaly is a
+  peak whatever the polarity.  Crossings are the union of both searches (one per ``min_separation``).
 * The distance to the magnet comes from the cube law calibrated for the magnet
   (:class:`MagnetCalibration`; eq 1 of the paper is garbled and replaced by the
   physical model).
@@ -78,6 +84,8 @@ class GateParams:
         Relative 1-sigma of the orientation-dependent norm from which the self-calibration is applied [1]
         (a calibrated sensor shows ~0.003; the correction is skipped there, where it would only add its
         own small errors to the peak heights).
+    anomaly : bool
+        Also search the field's vector anomaly in a ground-fixed frame (needs the three gyro axes).
     """
 
     threshold: float = 0.06
@@ -88,6 +96,7 @@ class GateParams:
     max_width: float = 0.5
     self_calibrate: bool = True
     calibrate_spread: float = 0.01
+    anomaly: bool = True
 
 
 @dataclass
@@ -181,6 +190,50 @@ def _half_height_width(e: np.ndarray, peaks: np.ndarray) -> np.ndarray:
     return width
 
 
+def gyro_bias_guess(t: np.ndarray, gyr: np.ndarray, window: float = 1.0) -> np.ndarray:
+    """Gyro bias [rad/s]: the mean rate over the quietest ``window`` seconds (lowest spread of ``|gyr|``),
+    zero when nothing is quiet (spread above 0.2 rad/s)."""
+    fs = 1.0 / float(median(np.diff(t)))
+    w = max(3, int(window * fs))
+    if gyr.shape[0] <= w:
+        return np.zeros(3)
+    n = np.linalg.norm(gyr, axis=1)
+    c1 = np.convolve(n, np.ones(w) / w, mode="valid")
+    c2 = np.convolve(n * n, np.ones(w) / w, mode="valid")
+    sd = np.sqrt(np.maximum(c2 - c1 * c1, 0.0))
+    k = int(np.argmin(sd))
+    return gyr[k : k + w].mean(axis=0) if sd[k] < 0.2 else np.zeros(3)
+
+
+def field_anomaly(
+    t_mag: np.ndarray, mag: np.ndarray, t_gyr: np.ndarray, gyr: np.ndarray, rate: float, background: float
+) -> np.ndarray:
+    """``|B - B_bg| / |B_bg|`` [1]: the field carried into a ground-fixed frame by the integrated gyro, its
+    background a moving median per component over ``background`` seconds (``rate`` [Hz] the magnetometer's)."""
+    from scipy.ndimage import median_filter
+
+    from sportfusion.core.rotations import dcm_from_quat, integrate_body_rates, interval_mean_rates
+
+    w = interval_mean_rates(gyr - gyro_bias_guess(t_gyr, gyr))
+    q = integrate_body_rates(np.array([1.0, 0.0, 0.0, 0.0]), t_gyr, w)
+    k = np.clip(np.searchsorted(t_gyr, t_mag), 0, t_gyr.size - 1)
+    b = np.einsum("kji,kj->ki", dcm_from_quat(q[k]), mag)
+    size = max(3, int(round(background * rate)) | 1)
+    bg = np.stack([median_filter(b[:, j], size=size, mode="nearest") for j in range(3)], axis=-1)
+    return np.linalg.norm(b - bg, axis=1) / np.maximum(np.linalg.norm(bg, axis=1), 1e-12)
+
+
+def _peaks(e: np.ndarray, p: GateParams, rate: float) -> tuple[np.ndarray, float, float]:
+    """Narrow peaks of ``e`` above the larger of ``threshold`` and ``noise_k`` robust sigmas: indices, noise,
+    threshold."""
+    from scipy.signal import find_peaks
+
+    noise = 1.4826 * float(median(np.abs(e - median(e))))
+    thr = max(p.threshold, p.noise_k * noise)
+    peaks, _ = find_peaks(e, height=thr, distance=max(1, int(p.min_separation * rate)))
+    return peaks[_half_height_width(e, peaks) <= max(1.0, p.max_width * rate)], noise, thr
+
+
 def detect_gates(
     t_mag: np.ndarray,
     mag: np.ndarray,
@@ -188,6 +241,7 @@ def detect_gates(
     gyr_z: np.ndarray,
     params: GateParams | None = None,
     calibration: MagnetCalibration | None = None,
+    gyr: np.ndarray | None = None,
 ) -> GateDetection:
     """Gate crossings from magnetometer peaks (see the module text).
 
@@ -202,6 +256,8 @@ def detect_gates(
     params : GateParams, optional
     calibration : MagnetCalibration, optional
         Distance model; default :func:`default_calibration` (the simulator's magnet).
+    gyr : ndarray, shape (k, 3), optional
+        All three angular rates at ``t_gyr`` [rad/s]: the field's vector anomaly is searched too.
 
     Returns
     -------
@@ -219,18 +275,27 @@ def detect_gates(
         if det.spread >= p.calibrate_spread:
             bn = cal_norm
     b = _over_background(bn, rate, p.background)
-    from scipy.signal import find_peaks
-
     e = b - 1.0
-    det.noise = 1.4826 * float(median(np.abs(e - median(e))))
-    det.threshold = max(p.threshold, p.noise_k * det.noise)
-    peaks, _ = find_peaks(e, height=det.threshold, distance=max(1, int(p.min_separation * rate)))
-    peaks = peaks[_half_height_width(e, peaks) <= max(1.0, p.max_width * rate)]
+    peaks, det.noise, det.threshold = _peaks(e, p, rate)
+    anom = None
+    if p.anomaly and gyr is not None and t_gyr.size > 10:
+        anom = field_anomaly(t_mag, mag, t_gyr, gyr, rate, p.background)
+        extra, _, _ = _peaks(anom, p, rate)
+        sep = max(1, int(p.min_separation * rate))
+        # an anomaly peak is a crossing of its own where no intensity peak is near (a dip of |B|)
+        extra = [int(k) for k in extra if peaks.size == 0 or np.min(np.abs(peaks - k)) >= sep]
+        peaks = np.sort(np.concatenate([peaks, np.asarray(extra, dtype=peaks.dtype)]))
     dt = 1.0 / rate
     for k in peaks:
         dk, bp = peak_vertex(b, int(k))
-        w = np.abs(t_gyr - t_mag[k]) <= p.turn_window
-        wz = float(np.mean(gyr_z[w])) if w.any() else float(np.interp(t_mag[k], t_gyr, gyr_z))
+        if anom is not None and bp - 1.0 < 0.5 * anom[k]:  # a dip or a weak bump: the anomaly's size instead
+            bp = 1.0 + float(anom[k])
+        # the gyro samples within turn_window of the peak: found by bisection in the sorted times (a scan
+        # of the whole record per peak made a day's recording quadratic), then the same test on that slice
+        lo = int(np.searchsorted(t_gyr, t_mag[k] - 2.0 * p.turn_window, side="left"))
+        hi = int(np.searchsorted(t_gyr, t_mag[k] + 2.0 * p.turn_window, side="right"))
+        w = np.abs(t_gyr[lo:hi] - t_mag[k]) <= p.turn_window
+        wz = float(np.mean(gyr_z[lo:hi][w])) if w.any() else float(np.interp(t_mag[k], t_gyr, gyr_z))
         det.crossings.append(
             Crossing(
                 t=float(t_mag[k]),
@@ -282,6 +347,12 @@ def detect_gate_table(
         )
     schema.require_columns(table, ("gyr_z",), "the turn side of gate crossings")
     t = schema.floats(table, "t")
+    gyr3 = None
+    if all(c in names for c in ("gyr_x", "gyr_y")):
+        g3 = schema.float_columns(table, ("gyr_x", "gyr_y", "gyr_z"))
+        ok3 = np.isfinite(g3).all(axis=1)
+        if ok3.sum() > 10:
+            gyr3 = (t[ok3], g3[ok3])
     mag = schema.float_columns(table, ("mag_x", "mag_y", "mag_z"))
     ok = np.isfinite(mag).all(axis=1)
     if ok.sum() < 5:
@@ -290,6 +361,8 @@ def detect_gate_table(
     okg = np.isfinite(gz)
     if not okg.any():
         raise InputError("column gyr_z holds no samples; expected the angular rate for the turn side")
+    if gyr3 is not None:
+        return detect_gates(t[ok], mag[ok], gyr3[0], gyr3[1][:, 2], params, calibration, gyr3[1])
     return detect_gates(t[ok], mag[ok], t[okg], gz[okg], params, calibration)
 
 
@@ -302,21 +375,24 @@ def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     out = set_events(table, [("gate", c.t) for c in det.crossings], replace=GATE_EVENTS)
     t = schema.floats(table, "t")
     n = t.size
-    bp: list[float | None] = [None] * n
-    dist: list[float | None] = [None] * n
-    tp: list[float | None] = [None] * n
-    turn: list[str | None] = [None] * n
+    bp = np.full(n, np.nan)
+    dist = np.full(n, np.nan)
+    tp = np.full(n, np.nan)
+    turn = np.full(n, None, dtype=object)
+    at = np.zeros(n, dtype=bool)
     for c in det.crossings:
-        i = int(np.argmin(np.abs(t - c.t)))
-        bp[i], turn[i] = c.b_peak, c.turn
-        dist[i] = None if not np.isfinite(c.distance) else c.distance
-        tp[i] = float(c.t_peak) if np.isfinite(c.t_peak) else None
+        # the row nearest the crossing (the first of two equally near), by bisection: t is increasing
+        i = int(np.clip(np.searchsorted(t, c.t), 0, n - 1))
+        if i > 0 and abs(t[i - 1] - c.t) <= abs(t[i] - c.t):
+            i -= 1
+        at[i] = True
+        bp[i], dist[i], turn[i], tp[i] = c.b_peak, c.distance, c.turn, c.t_peak
     return {
         "event": out.column("event").combine_chunks(),
-        "gate_b_peak": pa.array(bp, pa.float64()),
-        "gate_distance": pa.array(dist, pa.float64()),
-        "gate_t_peak": pa.array(tp, pa.float64()),
-        "turn": pa.array(turn, pa.string()),
+        "gate_b_peak": pa.array(bp, pa.float64(), mask=~at),
+        "gate_distance": pa.array(dist, pa.float64(), mask=~(at & np.isfinite(dist))),
+        "gate_t_peak": pa.array(tp, pa.float64(), mask=~(at & np.isfinite(tp))),
+        "turn": turn,
     }
 
 

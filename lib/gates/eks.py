@@ -1,21 +1,26 @@
-"""The paper's 15-state extended Kalman smoother of the sacrum (EKS 1 and EKS 2), run by the suite's one
-smoother core :func:`sportfusion.estimators.kalman.ekf_rts`.
+"""The paper's 15-state extended Kalman smoother of the sacrum (EKS 1 and EKS 2), with 3 drift-rate states
+added (18), run by the suite's one smoother core :func:`sportfusion.estimators.kalman.ekf_rts`.
 
 State (global frame J: z down, origin at the sacrum at start, azimuth 0 at the static start)::
 
-    x = [p (3), v (3), a (3), o (3), eps (3)]
+    x = [p (3), v (3), a (3), o (3), eps (3), w (3)]
 
 position, velocity and acceleration of the sacrum, a position offset ``o`` (the translation between the
-inertial track and the anchors' frame: anchors measure ``p + o``), and three small Euler angles ``eps``
-of residual orientation drift.
+inertial track and the anchors' frame: anchors measure ``p + o``), three small Euler angles ``eps``
+of residual orientation drift, and their rate ``w`` (not in the paper: a gyro's residual misalignment
+rectifies the turns' roll and yaw swings into a steady drift of the heading, 0.05-0.1 deg/s on the
+simulator, which the rate carries past the last anchor instead of freezing it there).
 
 Time-index convention (:mod:`sportfusion.estimators.kalman`): step k is sample k of the smoother grid (time
 ``t[k]``); ``propagate(k, x_{k|k})`` returns ``x_{k+1|k}``, ``Phi_k`` (maps the error of ``x_k`` onto
 ``x_{k+1}``) and ``Qd_k``.
 
 * Transition: constant acceleration (the paper's "constant-acceleration model"): ``p' = p + v dt +
-  a dt^2/2``, ``v' = v + a dt``, ``a' = a`` + white jerk of PSD ``q_jerk``; ``o`` constant; ``eps`` a
-  random walk of PSD ``q_eps``.
+  a dt^2/2``, ``v' = v + a dt``, ``a' = a`` + white jerk of PSD ``q_jerk``; ``o`` constant; ``eps' = eps + w dt``
+  plus a random walk of PSD ``q_eps`` plus ``q_rot`` times the squared rotation rate: a gyro's residual scale
+  factor and axis misalignment turn the attitude error while the body rotates (on the simulator a 0.2 deg
+  misalignment rectifies a GS run's roll and yaw swings into 1-4 deg of yaw drift; a hockey stop's
+  1.2 rad turn times a 0.5 % scale error is 0.3 deg), hardly while it glides straight or stands.
 * Acceleration measurement at every step: the gravity-removed acceleration of the strap-down orientation,
   which is off by the small rotation ``eps``: with ``C_est = (I - [eps x]) C_true`` and the specific force
   ``f = a - g`` (``g = (0, 0, g)``), ``a_meas = C_est f + g = a + (a - g) x eps``; Jacobians
@@ -24,7 +29,7 @@ Time-index convention (:mod:`sportfusion.estimators.kalman`): step k is sample k
   ``p(0) = 0`` (prior).
 * Anchor updates (EKS 2): at a matched crossing, ``p + o = g_n - r_rel`` (surveyed magnet minus the
   relative anchor offset), variance ``sigma_anchor^2`` per axis (1 m in the first iteration, 0.1 m in the
-  second).
+  second) or a pass fit's covariance.
 
 The smoother may run at a rate below the IMU's (``rate``, default 100 Hz): the acceleration is averaged
 over each step.
@@ -39,8 +44,8 @@ import numpy as np
 from sportfusion.core.rotations import skew
 from sportfusion.estimators.kalman import Measurement, SmootherResult, ekf_rts
 
-N_STATES = 15
-P_, V_, A_, O_, E_ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15)
+N_STATES = 18
+P_, V_, A_, O_, E_, W_ = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15), slice(15, 18)
 
 
 @dataclass(frozen=True)
@@ -53,6 +58,12 @@ class EKSParams:
         PSD of the white jerk driving the acceleration [(m/s^3)^2/Hz].
     q_eps : float
         PSD of the orientation-drift random walk [rad^2/s].
+    q_rot : float
+        Orientation-drift variance per second and squared rotation rate [rad^2/s per (rad/s)^2].
+    q_eps_rate : float
+        PSD of the drift rate's random walk [rad^2/s^3].
+    sigma_eps_rate0 : float
+        Prior 1-sigma of the drift rate [rad/s].
     sigma_acc : float
         1-sigma of one averaged acceleration measurement [m/s^2] (vibration, model errors).
     sigma_zupt : float
@@ -65,6 +76,9 @@ class EKSParams:
 
     q_jerk: float = 400.0
     q_eps: float = 2e-6
+    q_rot: float = 2e-5
+    q_eps_rate: float = 1e-8
+    sigma_eps_rate0: float = 2e-3
     sigma_acc: float = 0.6
     sigma_zupt: float = 0.02
     sigma_eps0: tuple[float, float, float] = (0.01, 0.01, 0.05)
@@ -72,7 +86,8 @@ class EKSParams:
 
 
 def transition(dt: float, p: EKSParams) -> tuple[np.ndarray, np.ndarray]:
-    """``Phi`` and ``Qd`` of the constant-acceleration model with offset and drift states (exact for white jerk)."""
+    """``Phi`` and ``Qd`` of the constant-acceleration model with offset, drift and drift-rate states (exact for
+    white jerk; the drift rate feeds the drift through ``Phi`` only)."""
     Phi = np.eye(N_STATES)
     i3 = np.eye(3)
     Phi[P_, V_] = i3 * dt
@@ -91,16 +106,20 @@ def transition(dt: float, p: EKSParams) -> tuple[np.ndarray, np.ndarray]:
         for j in range(3):
             Q[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] = i3 * blk[i, j]
     Q[E_, E_] = i3 * p.q_eps * dt
+    Phi[E_, W_] = i3 * dt
+    Q[W_, W_] = i3 * p.q_eps_rate * dt
     return Phi, Q
 
 
 @dataclass
 class Anchor:
-    """An anchor update at smoother step ``k``: ``p + o`` measured as ``z`` [m] with 1-sigma ``sigma`` [m]."""
+    """An anchor update at smoother step ``k``: ``p + o`` measured as ``z`` [m] with 1-sigma ``sigma`` [m]
+    per axis, or with the full covariance ``cov`` (3, 3) [m^2] when given (a pass fit's)."""
 
     k: int
     z: np.ndarray
     sigma: float
+    cov: np.ndarray | None = None
 
 
 def run_eks(
@@ -111,6 +130,7 @@ def run_eks(
     anchors: list[Anchor] | None = None,
     params: EKSParams | None = None,
     offset0: np.ndarray | None = None,
+    rot_rate: np.ndarray | None = None,
 ) -> SmootherResult:
     """Run the 15-state EKS over the smoother grid.
 
@@ -130,6 +150,8 @@ def run_eks(
     params : EKSParams, optional
     offset0 : ndarray (3,), optional
         Prior mean of the position offset [m] (default 0).
+    rot_rate : ndarray (N,), optional
+        Rotation rate of the body at the steps [rad/s] (drives ``q_rot``); default none.
 
     Returns
     -------
@@ -164,6 +186,9 @@ def run_eks(
 
     def propagate(k: int, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         Phi, Qd = trans(k)
+        if rot_rate is not None and p.q_rot > 0:
+            Qd = Qd.copy()
+            Qd[E_, E_] += np.eye(3) * (p.q_rot * rot_rate[k] ** 2 * steps[k])
         return Phi @ x, Phi, Qd
 
     def measure(k: int, x: np.ndarray) -> list[Measurement]:
@@ -177,7 +202,8 @@ def run_eks(
         if zupt[k]:
             out.append(Measurement(-x[V_], H_zupt, R_zupt, "zupt"))
         for an in by_step.get(k, ()):
-            out.append(Measurement(an.z - x[P_] - x[O_], H_anchor, np.full(3, an.sigma**2), "anchor"))
+            r_an = np.full(3, an.sigma**2) if an.cov is None else an.cov
+            out.append(Measurement(an.z - x[P_] - x[O_], H_anchor, r_an, "anchor"))
         return out
 
     x0 = np.zeros(N_STATES)
@@ -192,6 +218,7 @@ def run_eks(
                 np.full(3, 1.0),
                 np.full(3, p.sigma_offset0**2),
                 np.asarray(p.sigma_eps0) ** 2,
+                np.full(3, p.sigma_eps_rate0**2),
             ]
         )
     )

@@ -4,21 +4,27 @@
    (:mod:`sportfusion.gates.inertial`); gravity-removed acceleration in the global frame.
 2. EKS 1 (:func:`sportfusion.gates.eks.run_eks`): acceleration + zero-velocity updates at the static start
    and finish.
-3. Relative anchor points at the detected crossings (:func:`relative_anchors`, vertical direction) and
-   their matching to the survey (:func:`match_anchors`: PCA azimuth ``alpha``, features, eq 9, median
-   offset ``o``, absolute re-matching).
-4. EKS 2, first iteration: the matched anchors (surveyed magnet minus the relative offset, in the inertial
-   frame through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on
-   the refined track (snow plane now from the surveyed magnets around each matched gate) and matched again;
-   second iteration with 0.1 m sigma.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
+3. Relative anchor points at the detected crossings and their matching to the survey.  With the
+   magnetometer, each crossing's offset to its magnet comes from a fit of the whole pass's field
+   (:func:`~sportfusion.gates.passfit.fit_crossings`: no sacrum height, no lean, any polarity or
+   tilt); without it (or where the fit fails) from the peak model (:func:`relative_anchors`, eqs 2-6,
+   vertical direction).  Matching: PCA azimuth ``alpha`` (:func:`match_anchors`, eqs 7-9), then the
+   crossings aligned with the gates as one sequence by their inertial displacements
+   (:mod:`sportfusion.gates.alignment`; the paper's neighbour features mislead after a run of missed
+   gates), ``alpha`` refined on the matched pairs, median offset ``o``.
+4. EKS 2, first iteration: the matched anchors (surveyed point minus the offset, in the inertial frame
+   through ``alpha, o``) as position updates with 1 m sigma; the relative anchors are re-estimated on the
+   refined track and aligned again; the passes fitted again with the refined velocity; second iteration
+   with each fit's covariance (plus ``sigma_fit``), 0.1 m for the peak model (the paper's), ``sigma_unfitted``
+   for a crossing whose fit failed.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
    simulated downhill: K = 3).
 
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
 columns, the matched gate per crossing and the per-turn figures of the paper (Table 2): entrance and exit
 speed at the turn switches, distances from the switches and at the crossing to the gate, path length of
 the turn.  With one sacrum sensor we output the sacrum (the paper's LJC, ``p_sacr = p_ljc``); on a session
-with the columns of ``body-model`` also the paper's output, the absolute CoM, with the relative anchors from
-the ski contact points and the turn figures from the CoM (:mod:`sportfusion.gates.com`).
+with the columns of ``body-model`` also the paper's output, the absolute CoM, with the peak model's snow
+plane from the ski contact points and the turn figures from the CoM (:mod:`sportfusion.gates.com`).
 
 Turn switches: the paper uses equal left/right ankle distances to the CoM (a full-body criterion, used with a
 body); with the sacrum alone a switch is the sign change of the course rate (the turning of the horizontal velocity)
@@ -35,6 +41,7 @@ import numpy as np
 from sportfusion.core.errors import InputError
 from sportfusion.core.gaps import describe_gaps
 from sportfusion.core.rotations import euler_from_quat
+from sportfusion.gates.alignment import AlignParams, align_crossings, align_with_azimuth
 from sportfusion.gates.anchors import (
     MatchParams,
     match_anchors,
@@ -42,6 +49,7 @@ from sportfusion.gates.anchors import (
     rotate_z,
     sacrum_height,
     snow_normals,
+    survey_sides,
 )
 from sportfusion.gates.com import (
     SIGMA_REL_COM,
@@ -56,7 +64,9 @@ from sportfusion.gates.com import (
     turn_sides,
 )
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
-from sportfusion.gates.inertial import global_acceleration, static_windows, strapdown
+from sportfusion.gates.inertial import global_acceleration, static_gravity, static_windows, strapdown
+from sportfusion.gates.passfit import PassFit, PassFitParams, fit_crossings
+from sportfusion.gates.turns import turn_figures
 
 
 @dataclass(frozen=True)
@@ -86,6 +96,21 @@ class GateAnchorParams:
         above the surveyed mark (used with surveyed static spots only).
     sigma_spot : float
         1-sigma of a surveyed static spot as an anchor of the sacrum [m] (posture and stance on the mark).
+    survey_depth : float
+        Depth of a magnet's centre below its surveyed point [m]: 0 when the survey gives the magnets
+        themselves (the paper's assumption), about 0.1 when it gives the snow above a fully buried 15 cm
+        stick; the default takes the middle, so either convention is off by 5 cm at most.
+    pass_fit : bool
+        Place each anchor by a fit of the whole pass (:mod:`sportfusion.gates.passfit`) when the session has
+        the magnetometer; False: from the peak intensity and the body model alone (the paper's eqs 1-6).
+    fit : PassFitParams
+        The pass fit's settings.
+    sigma_fit : float
+        Added in quadrature to each axis of a pass fit's covariance in the final iteration [m] (survey noise,
+        the magnet model's simplifications).
+    sigma_unfitted : float
+        1-sigma of a final-iteration anchor whose pass could not be fitted (little signal: a wide or weak
+        pass), which only the peak model places [m].
     """
 
     rate: float = 100.0
@@ -97,8 +122,14 @@ class GateAnchorParams:
     projection: str = "vertical"
     static_height: float = 1.0
     sigma_spot: float = 0.05
+    survey_depth: float = 0.05
+    pass_fit: bool = True
+    fit: PassFitParams = field(default_factory=PassFitParams)
+    sigma_fit: float = 0.05
+    sigma_unfitted: float = 0.3
     eks: EKSParams = field(default_factory=EKSParams)
     match: MatchParams = field(default_factory=MatchParams)
+    align: AlignParams = field(default_factory=AlignParams)
 
 
 @dataclass
@@ -119,6 +150,7 @@ class GateAnchorResult:
     offset: np.ndarray
     turns: list[dict[str, Any]]
     passes: dict[str, Any]
+    fits: list[PassFit] | None = None  # the pass fit of each crossing (with a magnetometer)
     com: np.ndarray | None = None  # absolute CoM (N, 3) [m], with a body
     vcom: np.ndarray | None = None  # its velocity (N, 3) [m/s]
 
@@ -127,7 +159,7 @@ def _interp(tg: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(tq, tg, x[:, j]) for j in range(x.shape[1])], axis=-1)
 
 
-def _estimate_anchors(
+def _body_peak_offsets(
     tg: np.ndarray,
     track: np.ndarray,
     vel: np.ndarray,
@@ -135,15 +167,14 @@ def _estimate_anchors(
     normal: np.ndarray | None,
     p: GateAnchorParams,
     body: Body | None,
-) -> np.ndarray:
-    """Magnet positions estimated from the track at the crossings (eqs 2-6).  With a body
-    (:mod:`sportfusion.gates.com`) the snow plane passes through the ski contact points along the ski line
-    (``normal`` replaces its normal where given and finite); without one, from ``normal`` (None: vertical)
-    and the sacrum height."""
+) -> np.ndarray | None:
+    """The peak model's sensor -> magnet offsets (M, 3) with a body (eqs 2-6, :mod:`sportfusion.gates.com`):
+    the snow plane fitted to the ski contact points (``normal`` replaces its normal where given and finite);
+    None without a body (then :func:`relative_anchors` with the sacrum height)."""
+    if body is None:
+        return None
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
-    if body is None:
-        return relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial)
     n, pts = snow_planes(tg, track, body, cross["t"])
     if normal is not None:
         have = np.isfinite(normal).all(axis=1)
@@ -156,18 +187,7 @@ def _estimate_anchors(
         )
     elif ok.any():
         out[ok] = body_anchors(pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], n[ok], pts[ok], p.burial)
-    return out
-
-
-def _survey_normals(survey: np.ndarray, ids: np.ndarray, alpha: float, p: GateAnchorParams) -> np.ndarray | None:
-    """Snow normals in the inertial frame from the surveyed magnets around each matched gate (the normal
-    projection without a body; None otherwise: vertical, or with a body the ski line).  A plane through
-    five magnets 100 m apart is 3-7 deg off the snow under the skier on a slope whose pitch varies
-    (measured on the simulator), too far off for the cross slope a body's anchors would need."""
-    if p.projection != "normal":
-        return None
-    normal_s, _ = snow_normals(survey, ids)
-    return rotate_z(normal_s, -alpha)
+    return out - pc
 
 
 def _anchor_updates(
@@ -181,13 +201,19 @@ def _anchor_updates(
     offset: np.ndarray,
     sigma: float,
     p: GateAnchorParams,
+    fits: list[PassFit] | None = None,
+    final: bool = False,
     body: Body | None = None,
 ) -> tuple[list[Anchor], np.ndarray]:
-    """Anchor updates in the inertial frame: surveyed magnet (through alpha, offset) minus the relative offset."""
+    """Anchor updates in the inertial frame: surveyed point (through alpha, offset) minus the sensor -> surveyed
+    point offset (a pass fit's where there is one, else the peak model's).  In the ``final`` iteration a
+    fitted anchor carries its fit's covariance (plus ``sigma_fit``), an unfitted one ``sigma_unfitted``."""
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
-    est = _estimate_anchors(tg, track, vel, cross, _survey_normals(survey, ids, alpha, p), p, body)
-    rel = est - pc
+    normal_s, _ = snow_normals(survey, ids)
+    normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
+    peak = _body_peak_offsets(tg, track, vel, cross, normal_j, p, body)
+    rel = _survey_offsets(pc, vc, cross, normal_j, p, fits, peak)
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
     out = []
     for m in np.flatnonzero(used):
@@ -195,8 +221,39 @@ def _anchor_updates(
         k = int(np.clip(np.rint((cross["t"][m] - tg[0]) / (tg[1] - tg[0])), 0, tg.size - 1))
         # the crossing time falls between steps: move the measured point along the velocity to step k
         z = g_j - rel[m] + vc[m] * (tg[k] - cross["t"][m])
+        if final and fits is not None:
+            f = fits[m]
+            if f.ok:
+                out.append(Anchor(k, z, sigma, cov=f.cov + np.eye(3) * p.sigma_fit**2))
+                continue
+            out.append(Anchor(k, z, max(sigma, p.sigma_unfitted)))
+            continue
         out.append(Anchor(k, z, sigma))
     return out, used
+
+
+def _survey_offsets(
+    pc: np.ndarray,
+    vc: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    fits: list[PassFit] | None,
+    peak: np.ndarray | None = None,
+) -> np.ndarray:
+    """Offset (M, 3) from the sensor at each crossing to the magnet's surveyed point, inertial frame (z down):
+    the pass fit's magnet centre where it succeeded, else the peak model's (eqs 2-6; ``peak`` when given, a
+    body's), raised by ``survey_depth``."""
+    if peak is not None:
+        rel = np.array(peak, float)
+    else:
+        rel = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial) - pc
+    if fits is not None:
+        for m, f in enumerate(fits):
+            if f.ok:
+                rel[m] = f.rel
+    rel[:, 2] -= p.survey_depth
+    return rel
 
 
 def _spot_anchors(
@@ -229,83 +286,13 @@ def _detected_anchors(
     cross: dict[str, np.ndarray],
     normal: np.ndarray | None,
     p: GateAnchorParams,
+    fits: list[PassFit] | None = None,
     body: Body | None = None,
 ) -> np.ndarray:
-    return _estimate_anchors(tg, track, vel, cross, normal, p, body)
-
-
-def turn_figures(
-    tg: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    acc: np.ndarray,
-    cross_t: np.ndarray,
-    ids: np.ndarray,
-    survey: np.ndarray,
-    gate_numbers: np.ndarray,
-    signal: np.ndarray | None = None,
-) -> list[dict[str, Any]]:
-    """Per-turn figures (paper Table 2) for every matched crossing with a crossing before and after it.
-
-    A turn runs from the switch before its gate to the switch after it; a switch is the sign change of
-    ``signal`` (default: the course rate ``(vx ay - vy ax) / (vx^2 + vy^2)``; with a body the ankle criterion
-    of :func:`sportfusion.gates.com.ankle_switch_signal`) between two consecutive crossings nearest the
-    middle of the interval.  Returns dicts with ``gate``, ``t_in``, ``t_out`` [s], ``v_in``, ``v_out`` [m/s] (speed
-    at the switches), ``d_in``, ``d_out`` (3-D distance from the sacrum at the switches to the gate's
-    magnet), ``d_cross`` (at the crossing) and ``length`` (3-D path length from switch to switch) [m].
-    """
-    rate = (
-        signal
-        if signal is not None
-        else (vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]) / np.maximum(vel[:, 0] ** 2 + vel[:, 1] ** 2, 1.0)
-    )
-    order = np.argsort(cross_t)
-    ct = cross_t[order]
-
-    def switch(a: float, b: float) -> float | None:
-        w = np.flatnonzero((tg > a) & (tg < b))
-        if w.size < 3:
-            return None
-        s = np.sign(rate[w])
-        ch = np.flatnonzero(s[1:] != s[:-1])
-        if ch.size == 0:
-            return None
-        mid = 0.5 * (a + b)
-        j = ch[np.argmin(np.abs(tg[w[ch]] - mid))]
-        i0, i1 = w[j], w[j + 1]
-        r0, r1 = rate[i0], rate[i1]
-        f = r0 / (r0 - r1) if r0 != r1 else 0.5
-        return float(tg[i0] + f * (tg[i1] - tg[i0]))
-
-    out = []
-    for j in range(1, ct.size - 1):
-        m = order[j]
-        if ids[m] < 0:
-            continue
-        t_in, t_out = switch(ct[j - 1], ct[j]), switch(ct[j], ct[j + 1])
-        if t_in is None or t_out is None:
-            continue
-        g = survey[ids[m]]
-        pi, po, pc = (_interp(tg, pos, np.array([x]))[0] for x in (t_in, t_out, ct[j]))
-        vi, vo = (np.linalg.norm(_interp(tg, vel, np.array([x]))[0]) for x in (t_in, t_out))
-        seg = (tg > t_in) & (tg < t_out)
-        path = np.vstack([pi, pos[seg], po])
-        out.append(
-            {
-                "gate": int(gate_numbers[ids[m]]),
-                "gate_xyz": [float(v) for v in g],
-                "t_cross": float(ct[j]),
-                "t_in": t_in,
-                "t_out": t_out,
-                "v_in": float(vi),
-                "v_out": float(vo),
-                "d_in": float(np.linalg.norm(pi - g)),
-                "d_out": float(np.linalg.norm(po - g)),
-                "d_cross": float(np.linalg.norm(pc - g)),
-                "length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
-            }
-        )
-    return out
+    pc = _interp(tg, track, cross["t"])
+    vc = _interp(tg, vel, cross["t"])
+    peak = _body_peak_offsets(tg, track, vel, cross, normal, p, body)
+    return pc + _survey_offsets(pc, vc, cross, normal, p, fits, peak)
 
 
 def gate_anchor_arrays(
@@ -322,6 +309,7 @@ def gate_anchor_arrays(
     q_bj: np.ndarray | None = None,
     params: GateAnchorParams | None = None,
     spots: dict[str, np.ndarray] | None = None,
+    mag: tuple[np.ndarray, np.ndarray] | None = None,
     body: Body | None = None,
     still: list[tuple[float, float]] | None = None,
 ) -> GateAnchorResult:
@@ -349,10 +337,13 @@ def gate_anchor_arrays(
     spots : dict, optional
         Surveyed static spots in the output frame [m]: ``{"start": (3,), "finish": (3,)}``, the snow points
         where the athlete stands for the static postures; each anchors the sacrum during its posture (EKS 2).
+    mag : tuple, optional
+        Magnetometer times [s] (k,) and field (k, 3), body frame [uT or normalised]: each crossing's offset to
+        its magnet then comes from a fit of the whole pass (:func:`fit_crossings`) instead of the peak model.
     body : Body, optional
-        The body model's columns (:mod:`sportfusion.gates.com`): relative anchors from the ski contact
-        points, turn switches from the ankles, the absolute CoM; ``q_bj`` is then the body model's pelvis
-        sensor attitude.
+        The body model's columns (:mod:`sportfusion.gates.com`): the peak model's snow plane from the ski
+        contact points, turn switches from the ankles, the absolute CoM; ``q_bj`` is then the body model's
+        pelvis sensor attitude.
     still : list of (float, float), optional
         Further still periods [s] (zero-velocity updates), e.g. the body model's.
 
@@ -370,7 +361,7 @@ def gate_anchor_arrays(
     gate_numbers = np.arange(1, survey.shape[0] + 1) if gate_numbers is None else np.asarray(gate_numbers)
     static = static_windows(t, acc, gyr)
     q = strapdown(t, acc, gyr, static) if q_bj is None else q_bj
-    a_glob = global_acceleration(q, acc, g)
+    a_glob = global_acceleration(q, acc, static_gravity(t, acc, static))
     roll = euler_from_quat(q)[0]
     cross = {
         "t": np.asarray(cross_t, float),
@@ -379,6 +370,7 @@ def gate_anchor_arrays(
         "height": sacrum_height(np.interp(cross_t, t, roll), p.sacrum_height),
     }
     tg, ag = decimate(t, a_glob, p.rate)
+    wg = decimate(t, np.linalg.norm(gyr, axis=1)[:, None], p.rate)[1][:, 0]
     windows = {
         "start": (float(t[static.start[0]]), float(t[static.start[1] - 1])),
         "finish": (float(t[static.finish[0]]), float(t[static.finish[1] - 1])),
@@ -387,38 +379,49 @@ def gate_anchor_arrays(
     for a, b in list(windows.values()) + list(still or []):
         zupt |= (tg >= a) & (tg <= b)
     # EKS 1: inertial only
-    r1 = run_eks(tg, ag, g, zupt, None, p.eks)
+    r1 = run_eks(tg, ag, g, zupt, None, p.eks, rot_rate=wg)
     p1, v1 = r1.x_smooth[:, 0:3], r1.x_smooth[:, 3:6]
-    det1 = _detected_anchors(tg, p1, v1, cross, None, p, body)
+    fits = None
+    if mag is not None:
+        guess = _detected_anchors(tg, p1, v1, cross, None, p, None, body) - _interp(tg, p1, cross["t"])
+        guess[:, 2] += p.survey_depth
+        fits = fit_crossings(t, q, mag[0], mag[1], tg, v1, r1.x_smooth[:, 6:9], cross, guess, p.fit)
+    det1 = _detected_anchors(tg, p1, v1, cross, None, p, fits, body)
     m1 = match_anchors(cross["t"], det1, cross["side"], survey, survey_side, p.match)
-    if (m1.ids >= 0).sum() < 2:
+    ssd = survey_sides(survey) if survey_side is None else np.asarray(survey_side, float)
+    ids, alpha, offset = align_with_azimuth(cross["t"], det1, cross["side"], survey, ssd, m1.alpha, p.align)
+    if (ids >= 0).sum() < 2:
         raise InputError("fewer than 2 crossings could be matched to the survey; is it the right course?")
-    alpha, offset = m1.alpha, m1.offset
     # EKS 2, first iteration (anchor sigma 1 m); relative anchors re-estimated on the refined track (snow
     # plane from the survey) and matched again, already in the survey's azimuth (alpha fixed).  While the
     # re-matching adds matches (a large EKS-1 drift leaves few first matches) the first iteration is repeated
     # (at most 3 times; the paper runs it once).
-    ids = m1.ids
+    ids_first = ids
     track, vel = p1, v1
+    normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
-        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, body)
+        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, fits, body=body)
         an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
-        r2 = run_eks(tg, ag, g, zupt, an1, p.eks)
+        r2 = run_eks(tg, ag, g, zupt, an1, p.eks, rot_rate=wg)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
-        det2 = _detected_anchors(tg, track, vel, cross, _survey_normals(survey, ids, alpha, p), p, body)
-        m2 = match_anchors(
-            cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, survey_side, p.match, alpha=0.0
+        normal_s, _ = snow_normals(survey, ids)
+        det2 = _detected_anchors(
+            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, fits, body
         )
-        grew = (m2.ids >= 0).sum() > (ids >= 0).sum() + 1
-        if (m2.ids >= 0).sum() >= 2:
-            ids = m2.ids
+        ids2 = align_crossings(cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, ssd, p.align)
+        grew = (ids2 >= 0).sum() > (ids >= 0).sum() + 1
+        if (ids2 >= 0).sum() >= 2:
+            ids = ids2
         if not grew:
             break
     track2, v2 = track, vel
-    # EKS 2, second iteration (anchor sigma 0.1 m)
-    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, body)
+    if fits is not None:  # the passes again, with the velocity of the anchored track
+        guess = np.array([f.rel if f.ok else g for f, g in zip(fits, guess, strict=True)])
+        fits = fit_crossings(t, q, mag[0], mag[1], tg, v2, r2.x_smooth[:, 6:9], cross, guess, p.fit)
+    # EKS 2, second iteration (anchor sigma 0.1 m; a pass fit's covariance)
+    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, fits, True, body)
     an2 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
-    r3 = run_eks(tg, ag, g, zupt, an2, p.eks)
+    r3 = run_eks(tg, ag, g, zupt, an2, p.eks, rot_rate=wg)
     xs, Ps = r3.x_smooth, r3.P_smooth
     pos_j = xs[:, 0:3] + xs[:, 9:12]
     cov_j = Ps[:, 0:3, 0:3] + Ps[:, 9:12, 9:12] + Ps[:, 0:3, 9:12] + Ps[:, 9:12, 0:3]
@@ -438,7 +441,7 @@ def gate_anchor_arrays(
         turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
     passes = {
         "rate_hz": p.rate,
-        "matched_first": int((m1.ids >= 0).sum()),
+        "matched_first": int((ids_first >= 0).sum()),
         "matched_final": int((ids >= 0).sum()),
         "anchors_final": len(an2),
         "static_spots": [k for k in ("start", "finish") if k in spots],
@@ -462,6 +465,7 @@ def gate_anchor_arrays(
         offset=offset,
         turns=turns,
         passes=passes,
+        fits=fits,
         com=com,
         vcom=vcom,
     )
@@ -566,11 +570,16 @@ def gate_anchor_table(
             q = quat_multiply(qz, qn)
     g = normal_gravity(frame.lat, frame.h) if frame is not None else G_STANDARD
     dist = np.where(np.isfinite(cr["distance"]), cr["distance"], np.nan)
+    mag = None
+    if p.pass_fit and all(c in table.column_names for c in ("mag_x", "mag_y", "mag_z")):
+        m3 = schema.float_columns(table, ("mag_x", "mag_y", "mag_z"))
+        okm = np.isfinite(m3).all(axis=1)
+        mag = (t[okm], m3[okm]) if okm.sum() > 10 else None
     from sportfusion.estimators.kalman import CovarianceError
 
     try:
         res = gate_anchor_arrays(
-            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, body, still
+            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, mag, body, still
         )
     except CovarianceError as exc:
         raise InputError(f"the smoother failed: {exc}") from exc
@@ -580,7 +589,7 @@ def gate_anchor_table(
         cols[f"v{a}"] = np.interp(t, res.t, res.vel[:, i])
         cols[f"std_{a}"] = np.interp(t, res.t, res.std_pos[:, i])
         cols[f"std_v{a}"] = np.interp(t, res.t, res.std_vel[:, i])
-    if res.com is not None:
+    if res.com is not None and res.vcom is not None:
         for i, a in enumerate("xyz"):
             cols[f"com_{a}"] = np.interp(t, res.t, res.com[:, i])
             cols[f"com_v{a}"] = np.interp(t, res.t, res.vcom[:, i])
@@ -624,10 +633,15 @@ def gate_anchor_table(
         else "session q0..q3"
         if q is not None
         else "strap-down with drift correction",
-        "com": "LJC track + body model's relative CoM, three-point speed, Butterworth 2nd order 5 Hz zero phase; "
-        "turn figures from the CoM, switches from the ankles"
+        "com": "the sensor's track + its lever arm to the LJC + body model's relative CoM, three-point speed, "
+        "Butterworth 2nd order 5 Hz zero phase; turn figures from the CoM, switches from the ankles"
         if body is not None
         else None,
+        "anchors": "pass fit (bar magnet) where it converged, else the peak model"
+        if res.fits is not None
+        else "peak model (eqs 1-6)",
+        "pass_fits": None if res.fits is None else int(sum(f.ok for f in res.fits)),
+        "survey_depth_m": p.survey_depth,
         "anchors_every": p.anchors_every,
         "static_height_m": p.static_height if spots else None,
         **res.passes,

@@ -1,43 +1,45 @@
 """Simulated giant-slalom (or downhill) run over a course of magnet gates, with truth (gates paper setup).
 
-Course (local course frame: x along the fall-line azimuth, y right, z down,
-origin on the snow at the start):
+Written apart from the estimator (:mod:`sportfusion.gates.magnet`, ``crossings``, ``anchors``, ``eks``):
+it imports the core and the simulation toolkit only, and models the physics more fully than the
+estimator assumes.  Two parts: the skier's trajectory (here) and the magnetic scene with the worn
+unit's sensors (:mod:`sportfusion.gates.sim_sensors`), which any simulated body can reuse.
 
-* ``n_gates`` gates (GS: 30, 22-28 m apart, alternating sides 1.5-3.5 m off the
-  centre line; downhill: gates three times further apart), on a terrain whose
-  slope varies along the course and whose total drop is ``drop`` (150 m over
-  about 700 m); a magnet buried ``burial`` below the snow at each gate pole,
-  its moment vertical (pointing down, so that above it it adds to the Earth
-  field); the survey of the magnets (a ``gates`` table) carries a survey noise;
-* the snow-projection of the sacrum follows a C2 spline that swings around each
-  gate on its outside, ``pass_offset`` 0-0.5 m beyond the pole (first/last gate sometimes 1-1.4 m); the
-  sacrum is ``H0 cos(lean)`` above the snow along the snow normal, with
-  ``lean = atan(a_lat / g)`` (the inclination that balances the lateral
-  acceleration), so it passes 0.2-1.2 m from the magnets; a pass beyond about
-  0.8 m is usually not detected (the paper's observation);
-* speed: a push-off from the static start, then 15-25 m/s along the course
-  (GS; 25-35 m/s downhill), braking to a stop after the finish; static
-  postures of ``static`` seconds at start and finish;
-* attitude of the sacrum sensor (body axes x forward, y right, z down when
-  standing upright): yaw = direction of travel (plus a small pelvis swing),
-  roll = the lean, pitch = trunk flexion and slope;
-* spurious magnetic disturbances (``spurious`` small buried metal objects
-  beside the track between gates) give noise peaks.
+Course (local course frame: x along the fall-line azimuth, y right, z down, origin on the snow at the
+start):
 
-Sensors: an IMU at ``imu_rate`` (500 Hz: specific force and angular rate, with
-bias, white noise and ski vibration; the gyro bias also walks slowly) and a
-magnetometer at ``mag_rate`` (125 Hz, on the same instants as IMU samples) that
-measures the Earth field (WMM at the site) plus the dipole fields of all
-magnets, with a residual hard-iron bias and noise.  Earth rotation and
-Coriolis terms are left out (below 0.01 m/s^2 and 1e-4 rad/s, far under the
-sensor errors).
+* ``n_gates`` gates (GS: 30, 22-28 m apart, alternating sides 1.5-3.5 m off the centre line; downhill:
+  gates three times further apart) on a terrain whose slope varies along the course and whose drop is
+  ``drop`` (150 m over about 700 m); a bar magnet buried under each gate (see ``sim_sensors``); the
+  survey (a ``gates`` table) gives the snow point above each magnet, with survey noise;
+* the sacrum's snow projection follows a C2 spline that swings around each gate on its outside,
+  ``pass_offset`` beyond the gate (first/last gate sometimes 1-1.4 m; ``wide_fraction`` of the gates
+  passed ``wide_offset`` wide);
+* speed: a push-off from the static start with pole plants (surges of the speed, the sacrum bobbing),
+  then the course's speed range, a hockey stop after the finish (the body turns sideways and leans
+  back against the braking); static postures of ``static`` seconds at start and finish in which the
+  body sways like an inverted pendulum (and, with ``fidgets``, shifts its weight now and then);
+* body (a balance model, not the estimator's): the legs align with the specific force (gravity and the
+  turn's or the braking's acceleration), so the sacrum sits ``L cos(phi)`` above the snow, ``phi`` the
+  inclination of the specific force and ``L`` the leg length, which flexes in the turns and varies from
+  gate to gate; the pelvis (and the unit on it) inclines less than the legs (hip angulation
+  ``angulation``), faces partly down the fall line (counter-rotation) and its trunk flexes;
+* the unit sits ``lever`` from the sacrum point on the back of the pelvis; the truth is the unit's
+  position (what ``gate-anchor`` estimates) and attitude.
 
-Everything random comes from one ``numpy.random.Generator`` seeded by ``seed``.
+Sensors (``sim_sensors``): IMU at ``imu_rate`` (500 Hz) and magnetometer at ``mag_rate`` (125 Hz, on
+IMU instants) with scale, misalignment, bias, temperature drift, noise, quantisation, range and ski
+chatter; the magnetometer sees the Earth field, a geological anomaly, the gate magnets, stray iron and
+the athlete's equipment.  Earth rotation and Coriolis terms are left out (below 0.01 m/s^2 and 1e-4 rad/s).
+
+Named model-mismatch variants (:data:`VARIANTS`, ``GatesConfig(variant=...)``, ``simulate gates
+--variant``) change one aspect of this world at a time.  Everything random comes from ``seed`` (four
+independent streams: course and body, magnetic scene, unit, survey).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, replace
 
 import numpy as np
 import pyarrow as pa
@@ -49,22 +51,104 @@ from sportfusion.core.magfield import reference_field
 from sportfusion.core.rotations import (
     euler_from_quat,
     local_to_ned,
+    ned_to_local,
     quat_conjugate,
-    quat_from_euler,
+    quat_from_dcm,
     quat_multiply,
     to_body,
+    to_ned,
 )
 from sportfusion.core.session import Stream, merge_streams
-from sportfusion.gates.magnet import DEFAULT_MOMENT, dipole_field
+from sportfusion.gates.sim_sensors import (
+    MagneticScene,
+    MagnetSpec,
+    StraySpec,
+    UnitSpec,
+    field_in_body,
+    gate_magnets,
+    measure_unit,
+    stray_sources,
+)
+from sportfusion.sim.sensors import TriadSpec
 
 FINE_DT = 0.001  # truth grid [s]
+
+#: model-mismatch variants: name -> (what changes, the GatesConfig fields it sets)
+VARIANTS: dict[str, tuple[str, dict]] = {
+    "nominal": ("the realistic default", {}),
+    "stray-iron": (
+        "three pylons 4-7 m from the centre line (3-8 uT at 5 m), four debris objects, a buried snow-making "
+        "pipe across the course, a groomer at the finish, a 1 uT geological anomaly",
+        {
+            "stray": StraySpec(
+                pylons=3,
+                pylon_field=(3.0, 8.0),
+                pylon_distance=(4.0, 7.0),
+                debris=4,
+                pipe=True,
+                groomer=True,
+                anomaly=1.0,
+                start_hut=5.0,
+            )
+        },
+    ),  # fmt: skip
+    "tilted": ("magnets tilted 20 deg (1-sigma) from the snow normal", {"magnets": MagnetSpec(tilt_deg=20.0)}),
+    "weak": (
+        "weak magnets: 0.4 x the moment (four discs), 20 % spread between magnets",
+        {"magnets": MagnetSpec(moment=0.4 * MagnetSpec().moment, spread=0.2)},
+    ),
+    "deep": ("magnets 0.10-0.25 m under the snow (fresh snow)", {"magnets": MagnetSpec(depth=(0.10, 0.25))}),
+    "flipped": ("every magnet buried north pole up", {"magnets": MagnetSpec(polarity="up")}),
+    "mixed": ("polarity of each magnet at random", {"magnets": MagnetSpec(polarity="mixed")}),
+    "two-charge": ("magnets as two charges +-m/L (no disc stack)", {"magnets": MagnetSpec(model="two-charge")}),
+    "wide": (
+        "a quarter of the gates passed 1.0-2.2 m wide (no detectable peak for many)",
+        {"wide_fraction": 0.25, "wide_offset": (1.0, 2.2)},
+    ),
+    "still": ("30 s standing at start and finish, swaying, with weight shifts", {"static": 30.0, "fidgets": 2}),
+    "sensor": (
+        "a poorer unit: accelerometer scale 1 %, gyro scale 1.5 %, three times the temperature drift, "
+        "a colder day (25 -> -15 deg C)",
+        {
+            "unit": UnitSpec(
+                acc=TriadSpec(
+                    bias=0.05,
+                    scale=0.01,
+                    misalignment=0.007,
+                    noise=0.08,
+                    temp_bias=0.006,
+                    temp_scale=3e-4,
+                    resolution=16 * 9.80665 / 32768,
+                    range=16 * 9.80665,
+                ),
+                gyr=TriadSpec(
+                    bias=0.02,
+                    bias_walk=2e-4,
+                    scale=0.015,
+                    misalignment=0.007,
+                    noise=0.008,
+                    temp_bias=6e-4,
+                    temp_scale=3e-4,
+                    resolution=np.deg2rad(2000.0) / 32768,
+                    range=np.deg2rad(2000.0),
+                ),
+                temperature=(25.0, -15.0),
+            )
+        },
+    ),  # fmt: skip
+    "athlete": (
+        "a smaller athlete skiing lower: leg length 0.78 m, standing 0.88 m, strong angulation 0.45",
+        {"leg_length": 0.78, "stand_height": 0.88, "angulation": 0.45},
+    ),
+}
 
 
 @dataclass
 class GatesConfig:
-    """Parameters of :func:`simulate_gates` (units in brackets)."""
+    """Parameters of :func:`simulate_gates` (units in brackets); ``variant`` applies one of :data:`VARIANTS`."""
 
     seed: int = 0
+    variant: str = "nominal"
     downhill: bool = False
     n_gates: int = 30
     spacing: tuple[float, float] = (22.0, 28.0)  # gate-to-gate distance [m]
@@ -72,29 +156,29 @@ class GatesConfig:
     drop: float = 150.0  # vertical drop start -> finish [m]
     speed: tuple[float, float] = (15.0, 25.0)  # speed range on the course [m/s]
     static: float = 5.0  # static posture at start and at finish [s]
+    fidgets: int = 0  # weight shifts in each static posture [count]
+    sway: float = 0.01  # amplitude of the standing body's sway at the sacrum [m]
     imu_rate: float = 500.0  # [Hz]
     mag_rate: float = 125.0  # [Hz]
     site: tuple[float, float, float] = (46.8345, 9.2103, 1600.0)  # start: lat [deg], lon [deg], h [m]
     azimuth_deg: float = 20.0  # fall line / course-frame x axis, clockwise from north [deg]
     date: str = "2026-01-20T10:00:00Z"
-    moment: float = DEFAULT_MOMENT  # magnet moment [A m^2]
-    burial: float = 0.05  # magnet depth below the snow [m]
-    pass_offset: tuple[float, float] = (0.0, 0.5)  # sacrum's snow projection beyond the pole [m]
-    sacrum_height: float = 0.95  # sacrum height above the snow at zero lean while skiing [m]
-    height_spread: float = 0.05  # relative 1-sigma of the sacrum height at each gate
+    moment: float | None = None  # magnet moment [A m^2]; None: the magnets' spec (0: a course without magnets)
+    spurious: int | None = None  # debris objects beside the track [count]; None: the stray spec's
+    pass_offset: tuple[float, float] = (0.0, 0.5)  # sacrum's snow projection beyond the gate [m]
+    wide_fraction: float = 0.0  # gates (besides the first and last) passed wide [fraction]
+    wide_offset: tuple[float, float] = (1.0, 1.4)  # how wide [m]
+    leg_length: float = 0.92  # sacrum above the ski contact along the legs while skiing [m]
+    stand_height: float = 1.0  # sacrum above the snow standing upright [m]
+    flexion: float = 0.12  # relative shortening of the legs at the largest lean [1]
+    height_spread: float = 0.05  # relative 1-sigma of the leg length at each gate [1]
+    angulation: float = 0.25  # the pelvis inclines (1 - angulation) times the legs' inclination [1]
+    lever: tuple[float, float, float] = (-0.09, 0.0, -0.02)  # unit from the sacrum point, body axes [m]
     survey_sigma: tuple[float, float] = (0.02, 0.03)  # survey noise, horizontal / vertical [m]
     survey_spots: bool = False  # also survey the snow spots of the static postures (rows point = start/finish)
-    spurious: int = 1  # magnetic disturbances beside the track [count]
-    # IMU errors (after the paper's calibration)
-    acc_bias: float = 0.03  # [m/s^2] 1-sigma per axis
-    acc_noise: float = 0.05  # [m/s^2] per sample
-    acc_vibration: float = 0.8  # [m/s^2] per sample while skiing
-    gyr_bias: float = 0.01  # [rad/s] 1-sigma per axis (removed at the static start by the estimator)
-    gyr_bias_walk: float = 2e-4  # [rad/s/sqrt(s)]
-    gyr_noise: float = 0.005  # [rad/s] per sample
-    gyr_vibration: float = 0.03  # [rad/s] per sample while skiing
-    mag_bias: float = 0.3  # [uT] 1-sigma per axis (residual hard iron)
-    mag_noise: float = 0.3  # [uT] per sample
+    magnets: MagnetSpec = field(default_factory=MagnetSpec)
+    stray: StraySpec = field(default_factory=StraySpec)
+    unit: UnitSpec = field(default_factory=UnitSpec)
     # a full-body skier with seven IMUs (sportfusion.gates.sim_skier; simulate gates --body)
     body: bool = False
     height: float = 1.80  # athlete's height [m]
@@ -102,6 +186,18 @@ class GatesConfig:
     max_misalignment: float = 30.0  # sensor strap rotation, at most [deg]
 
     def __post_init__(self) -> None:
+        if self.variant not in VARIANTS:
+            raise ValueError(f"unknown variant {self.variant!r}; expected one of {', '.join(VARIANTS)}")
+        defaults = GatesConfig.__dataclass_fields__
+        for k, v in VARIANTS[self.variant][1].items():
+            d = defaults[k]
+            default = d.default_factory() if d.default_factory is not MISSING else d.default
+            if getattr(self, k) == default:
+                setattr(self, k, v)
+        if self.moment is not None:
+            self.magnets = replace(self.magnets, moment=float(self.moment))
+        if self.spurious is not None:
+            self.stray = replace(self.stray, debris=int(self.spurious))
         if self.downhill:
             self.n_gates = 12 if self.n_gates == 30 else self.n_gates
             if self.spacing == (22.0, 28.0):
@@ -125,14 +221,39 @@ class GatesSim:
     truth_meta: dict
     survey_meta: dict
     fine: dict = field(repr=False)
-    magnets: np.ndarray = field(repr=False)  # (N, 3) true magnet positions, course frame [m]
-    crossings: dict = field(repr=False)  # truth per gate: t, distance, turn, index on the fine grid
+    magnets: np.ndarray = field(repr=False)  # (N, 3) the surveyed points (snow above each magnet), course frame [m]
+    crossings: dict = field(repr=False)  # truth per gate: t, distance (to the magnet's centre), turn, fine index
+    magnet_centres: np.ndarray = field(default=None, repr=False)  # (N, 3) centre of each magnet [m]
+    scene: MagneticScene | None = field(default=None, repr=False)
     body: dict | None = field(default=None, repr=False)  # the skier (--body): sportfusion.gates.sim_skier
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
     x = np.clip(x, 0.0, 1.0)
     return x * x * (3 - 2 * x)
+
+
+def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
+    """Active rotations (n, 3, 3) by ``angle`` [rad] about the body axis ``axis`` (0 x, 1 y, 2 z)."""
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros((np.size(angle), 3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    out[:, axis, axis] = 1.0
+    out[:, i, i] = out[:, j, j] = c
+    out[:, i, j], out[:, j, i] = -s, s
+    return out
+
+
+def _smooth(x: np.ndarray, width: int) -> np.ndarray:
+    """Hann-window moving average of ``width`` samples (odd) along axis 0, edges held."""
+    ker = np.hanning(width + 2)[1:-1]
+    ker /= ker.sum()
+    half = width // 2
+    pad = [(half, half)] + [(0, 0)] * (x.ndim - 1)
+    xp = np.pad(x, pad, mode="edge")
+    if x.ndim == 1:
+        return np.convolve(xp, ker, mode="valid")
+    return np.stack([np.convolve(xp[:, j], ker, mode="valid") for j in range(x.shape[1])], axis=-1)
 
 
 class _Terrain:
@@ -186,10 +307,12 @@ def _course(cfg: GatesConfig, rng: np.random.Generator) -> dict:
         dy = y[i] - y[i - 1]
         x[i] = x[i - 1] + np.sqrt(max(d**2 / (1 + slope**2) - dy**2, 1.0))
     offset = rng.uniform(*cfg.pass_offset, n)
-    # first and last gates are often passed wide (the paper: usually those are missed)
+    # first and last gates are often passed wide (the paper: usually those are missed), others now and then
     for i in (0, n - 1):
         if rng.random() < 0.4:
             offset[i] = rng.uniform(1.0, 1.4)
+    wide = rng.random(n) < cfg.wide_fraction
+    offset[wide] = rng.uniform(*cfg.wide_offset, int(wide.sum()))
     x_finish = x[-1] + 25.0
     x_end = x_finish + (45.0 if not cfg.downhill else 90.0)
     kx = np.concatenate(([0.0, 8.0], x, [x_finish, x_end - 5.0, x_end]))
@@ -207,8 +330,71 @@ def _course(cfg: GatesConfig, rng: np.random.Generator) -> dict:
     }
 
 
+def _timing(cfg: GatesConfig, rng: np.random.Generator, s_of_x: np.ndarray, s_fin: float) -> tuple[np.ndarray, int]:
+    """Distance along the path s [m] on the fine grid of the run (push-off to stop) and the stop index."""
+    lo, hi = cfg.speed
+    mid, amp = (lo + hi) / 2, (hi - lo) / 2
+    ph = rng.uniform(0, 2 * np.pi, 3)
+    base = (
+        mid
+        + 0.6 * amp * np.sin(2 * np.pi * s_of_x / 310.0 + ph[0])
+        + 0.3 * amp * np.sin(2 * np.pi * s_of_x / 95.0 + ph[1])
+    )
+    base = np.clip(base, lo + 0.5, hi - 0.5)
+    push = 6.0 if not cfg.downhill else 7.0
+    brake = rng.uniform(6.0, 8.0)
+    s_end = s_of_x[-1]
+    s_stop = s_fin + 0.8 * (s_end - s_fin)
+    u_s = np.minimum(base, np.sqrt(2 * push * (s_of_x + 0.02)))
+    u_s = np.minimum(u_s, np.sqrt(2 * brake * np.maximum(s_stop - s_of_x, 0.0)))
+    n_run = int(400.0 / FINE_DT)
+    s = np.zeros(n_run)
+    k_stop = n_run - 1
+    u_prev = 0.0
+    for i in range(1, n_run):
+        u = np.interp(s[i - 1], s_of_x, u_s)
+        if u < 0.05 and s[i - 1] > s_fin:
+            k_stop = i
+            s[i:] = s[i - 1]
+            break
+        if s[i - 1] < s_fin:  # the push-off's acceleration builds up over 0.6 s
+            u = min(u, u_prev + push * float(_smoothstep(np.array(i * FINE_DT / 0.6))) * FINE_DT)
+        u_prev = max(u, 1e-3)
+        s[i] = s[i - 1] + u_prev * FINE_DT
+    s = s[: k_stop + 1]
+    # pole plants in the push-off: speed surges of +-0.25 m/s at 1.1-1.5 Hz over the first 2-3 s
+    tr = np.arange(s.size) * FINE_DT
+    fp = rng.uniform(1.1, 1.5)
+    env = _smoothstep(tr / 0.4) * (1 - _smoothstep((tr - rng.uniform(2.0, 3.0)) / 0.6))
+    du = 0.25 * env * (1 - np.cos(2 * np.pi * fp * tr))
+    s = s + np.cumsum(du) * FINE_DT
+    s[-1:] = s[-2]
+    return s, k_stop
+
+
+def _standing(cfg: GatesConfig, rng: np.random.Generator, t: np.ndarray, still: np.ndarray) -> np.ndarray:
+    """Horizontal displacement (n, 2) [m] of the standing body's sacrum: sway (a few sines, 0.15-0.6 Hz) and
+    weight shifts (``fidgets`` per posture: 3-6 cm over 0.8 s, held 1.5-3 s, back), zero while skiing."""
+    d = np.zeros((t.size, 2))
+    for j in range(2):
+        for _ in range(3):
+            f = rng.uniform(0.15, 0.6)
+            d[:, j] += cfg.sway / 2 * rng.uniform(0.5, 1.0) * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+    runs = np.flatnonzero(np.diff(np.concatenate(([0], still.astype(int), [0]))))
+    for a, b in zip(runs[::2], runs[1::2], strict=True):
+        ta, tb = t[a], t[b - 1]
+        for _ in range(cfg.fidgets):
+            t0 = rng.uniform(ta + 1.0, max(tb - 6.0, ta + 1.5))
+            hold = rng.uniform(1.5, 3.0)
+            shift = rng.normal(size=2)
+            shift *= rng.uniform(0.03, 0.06) / np.linalg.norm(shift)
+            bump = _smoothstep((t - t0) / 0.8) * (1 - _smoothstep((t - t0 - 0.8 - hold) / 0.8))
+            d += bump[:, None] * shift
+    return d
+
+
 def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
-    """Course, terrain and the sacrum's truth on the fine grid."""
+    """Course, terrain and the unit's truth on the fine grid (see the module text)."""
     from scipy.interpolate import CubicSpline
 
     c = _course(cfg, rng)
@@ -223,87 +409,68 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
     x_of_s = CubicSpline(s_of_x[::4], xs[::4])
     s_end = s_of_x[-1]
     s_fin = float(np.interp(c["x_finish"], xs, s_of_x))
-    # speed profile along the path: push-off, smooth random variations in the range, braking after the finish
-    lo, hi = cfg.speed
-    mid, amp = (lo + hi) / 2, (hi - lo) / 2
-    ph = rng.uniform(0, 2 * np.pi, 3)
-    base = (
-        mid
-        + 0.6 * amp * np.sin(2 * np.pi * s_of_x / 310.0 + ph[0])
-        + 0.3 * amp * np.sin(2 * np.pi * s_of_x / 95.0 + ph[1])
-    )
-    base = np.clip(base, lo + 0.5, hi - 0.5)
-    push = 6.0 if not cfg.downhill else 7.0
-    brake = 7.0
-    s_stop = s_fin + 0.8 * (s_end - s_fin)
-    u_s = np.minimum(base, np.sqrt(2 * push * (s_of_x + 0.02)))
-    u_s = np.minimum(u_s, np.sqrt(2 * brake * np.maximum(s_stop - s_of_x, 0.0)))
-    # time integration of ds/dt = u(s)
-    n_run = int(400.0 / FINE_DT)
-    s = np.zeros(n_run)
-    k_stop = n_run - 1
-    for i in range(1, n_run):
-        u = np.interp(s[i - 1], s_of_x, u_s)
-        if u < 0.05 and s[i - 1] > s_fin:
-            k_stop = i
-            s[i:] = s[i - 1]
-            break
-        s[i] = s[i - 1] + max(u, 0.05) * FINE_DT
+    s_run, k_stop = _timing(cfg, rng, s_of_x, s_fin)
     n_static = int(round(cfg.static / FINE_DT))
-    s_run = s[: k_stop + 1]
     s_all = np.concatenate((np.zeros(n_static), s_run, np.full(n_static, s_run[-1])))
-    # smooth the 1 kHz s(t) slightly (removes the Euler kinks, keeps it monotone)
-    ker = np.hanning(41)
-    ker /= ker.sum()
-    s_all = np.convolve(np.pad(s_all, 20, mode="edge"), ker, mode="valid")
+    s_all = np.maximum.accumulate(_smooth(s_all, 41))  # removes the Euler kinks, keeps it monotone
     t = np.arange(s_all.size) * FINE_DT
-    x = x_of_s(s_all)
-    x = np.maximum.accumulate(x)
+    x = np.maximum.accumulate(x_of_s(s_all))
     y = path(x)
     snow = np.stack([x, y, ter.z(x, y)], axis=-1)
     nup = ter.up_normal(x, y)
-    # horizontal kinematics of the snow point -> lateral acceleration -> lean -> sacrum height
-    vs = np.gradient(snow, FINE_DT, axis=0)
-    as_ = np.gradient(vs, FINE_DT, axis=0)
-    vh = vs[:, :2]
-    sp = np.linalg.norm(vh, axis=1)
-    right = np.stack([-vh[:, 1], vh[:, 0]], axis=-1) / np.maximum(sp, 0.3)[:, None]
-    alat = np.sum(as_[:, :2] * right, axis=1)
-    moving = sp > 0.5
-    lean = np.arctan2(alat, g) * moving
-    lean = np.convolve(np.pad(lean, 50, mode="edge"), np.hanning(101) / np.hanning(101).sum(), mode="valid")
     tr = t - cfg.static
     t_run_end = k_stop * FINE_DT
     skiing = _smoothstep(tr / 1.5) * (1 - _smoothstep((tr - t_run_end + 1.5) / 1.5))
-    h0 = 1.0 + (cfg.sacrum_height - 1.0) * skiing  # upright at start/finish, crouched while skiing
-    # per-gate variation of the height (posture) around the model, smooth in time
-    gate_s = np.interp(c["gx"], xs, s_of_x)
-    hv = rng.normal(0, cfg.height_spread, c["gx"].size)
-    hv_s = CubicSpline(np.concatenate(([0.0], gate_s, [s_end])), np.concatenate(([0.0], hv, [0.0])))
-    hfac = 1.0 + hv_s(s_all) * skiing
-    height = h0 * np.cos(lean) * hfac
-    # standing still the body balances its centre of mass over the feet (vertically above the snow point);
-    # gliding, the slope's acceleration tilts the effective gravity onto the snow normal
-    up = (1.0 - skiing)[:, None] * np.array([0.0, 0.0, -1.0]) + skiing[:, None] * nup
-    up /= np.linalg.norm(up, axis=1, keepdims=True)
-    pos = snow + height[:, None] * up
-    vel = np.gradient(pos, FINE_DT, axis=0)
-    acc = np.gradient(vel, FINE_DT, axis=0)
-    # attitude of the sacrum sensor in the course frame -> NED
+    still = (tr < 0) | (tr > t_run_end)
+    # horizontal kinematics of the snow point
+    vs = np.gradient(snow, FINE_DT, axis=0)
+    a_h = _smooth(np.gradient(vs[:, :2], FINE_DT, axis=0), 301)
+    vh = vs[:, :2]
+    sp = np.linalg.norm(vh, axis=1)
+    moving = sp > 0.5
     heading = np.unwrap(np.arctan2(vh[:, 1], vh[:, 0]))
     heading = np.where(moving, heading, np.nan)
     idx = np.flatnonzero(np.isfinite(heading))
-    heading = np.interp(np.arange(t.size), idx, heading[idx])
-    heading = np.convolve(np.pad(heading, 50, mode="edge"), np.hanning(101) / np.hanning(101).sum(), mode="valid")
-    pelvis = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 1.3) * skiing
-    sway = np.deg2rad(1.0) * np.sin(2 * np.pi * t / 3.7)
-    yaw = np.deg2rad(cfg.azimuth_deg) + heading + pelvis
-    # the trunk follows the slope as the skier gets going (weighted by the smooth skiing ramp, not switched
-    # on when the speed passes a threshold: no step in the pitch)
-    slope_along = np.arctan2(vs[:, 2], np.maximum(sp, 1e-3)) * skiing
-    pitch = np.deg2rad(15.0) * skiing - 0.5 * slope_along + sway
-    roll = lean + 0.5 * sway
-    q = quat_from_euler(roll, pitch, yaw)
+    heading = _smooth(np.interp(np.arange(t.size), idx, heading[idx]), 101)
+    # the pelvis twists against the turn (counter-rotation: it faces towards the course direction); a hockey
+    # stop turns it sideways
+    course_dir = _smooth(heading, 3001)
+    k_brake = int(np.argmax((x > c["x_finish"]) & (np.gradient(sp, FINE_DT) < -2.0)))
+    hs = rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 1.4)
+    twist = -0.3 * (heading - course_dir) + hs * _smoothstep((t - t[k_brake]) / 0.6)
+    fwd = np.stack([np.cos(heading), np.sin(heading)], axis=-1)
+    right = np.stack([-np.sin(heading), np.cos(heading)], axis=-1)
+    a_fwd, a_right = np.sum(a_h * fwd, axis=1), np.sum(a_h * right, axis=1)
+    # legs along the specific force: inclination phi; the pelvis inclines less (angulation)
+    phi = np.arctan(np.linalg.norm(a_h, axis=1) / g)
+    gate_s = np.interp(c["gx"], xs, s_of_x)
+    hv = rng.normal(0, cfg.height_spread, c["gx"].size)
+    hv_s = CubicSpline(np.concatenate(([0.0], gate_s, [s_end])), np.concatenate(([0.0], hv, [0.0])))
+    phi_late = np.interp(t - 0.2, t, phi)  # the legs flex most just after the largest lean
+    bob = 0.03 * np.sin(2 * np.pi * 1.3 * tr) * _smoothstep(tr / 0.4) * (1 - _smoothstep((tr - 2.5) / 0.6))
+    leg = cfg.leg_length * (1 - cfg.flexion * np.tanh(phi_late**2 / 0.5)) * (1 + hv_s(s_all)) + bob
+    stand = _standing(cfg, rng, t, still)
+    height = (cfg.stand_height * (1 - skiing) + leg * skiing) * np.cos(phi)
+    up = (1.0 - skiing)[:, None] * np.array([0.0, 0.0, -1.0]) + skiing[:, None] * nup
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    sacrum = snow + height[:, None] * up
+    sacrum[:, :2] += stand * (1.0 - skiing)[:, None]
+    # attitude of the pelvis (body axes x forward, y right, z down): inclined along the specific force in the
+    # travel frame (by 1 - angulation of the legs' inclination; standing, by the sway), then twisted about its
+    # long axis and flexed forward
+    stand = stand * (1.0 - skiing)[:, None]
+    sway_fwd, sway_right = np.sum(stand * fwd, axis=1), np.sum(stand * right, axis=1)
+    flex = skiing * (0.35 + 0.1 * np.tanh(phi**2)) + 8.0 * bob
+    lean_r = (1 - cfg.angulation) * np.arctan(a_right / g) + sway_right / cfg.stand_height
+    lean_f = (1 - cfg.angulation) * np.arctan(a_fwd / g) + sway_fwd / cfg.stand_height
+    c_bn = _rot(2, np.deg2rad(cfg.azimuth_deg) + heading) @ _rot(0, lean_r) @ _rot(1, -lean_f)
+    c_bn = c_bn @ _rot(2, twist) @ _rot(1, -flex)
+    q = quat_from_dcm(np.swapaxes(c_bn, 1, 2))
+    roll = euler_from_quat(q)[0]
+    lever = ned_to_local(to_ned(q, np.broadcast_to(np.asarray(cfg.lever, float), (t.size, 3))), cfg.azimuth_deg)
+    pos = sacrum + lever
+    vel = np.gradient(pos, FINE_DT, axis=0)
+    acc = np.gradient(vel, FINE_DT, axis=0)
     return {
         "t": t,
         "pos": pos,
@@ -311,11 +478,13 @@ def _truth(cfg: GatesConfig, rng: np.random.Generator, g: float) -> dict:
         "acc": acc,
         "q": q,
         "roll": roll,
+        "lean": phi,
         "height": height,
         "skiing": skiing,
         "course": c,
         "terrain": ter,
         "snow": snow,
+        "speed": sp,
         "t_run": (cfg.static, cfg.static + t_run_end),
     }
 
@@ -336,7 +505,7 @@ def body_rates(q: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _crossings(tru: dict, magnets: np.ndarray, sides: np.ndarray) -> dict:
-    """Truth per gate: the instant of closest approach of the sacrum to the magnet, distance, turn side."""
+    """Truth per gate: the instant of closest approach of the unit to the magnet's centre, distance, turn side."""
     pos = tru["pos"]
     t = tru["t"]
     out = {"t": [], "distance": [], "turn": [], "k": []}
@@ -367,19 +536,21 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     GatesSim
         ``session`` (kind session): ``acc_* gyr_*`` at 500 Hz, ``mag_*`` [uT] at
         125 Hz on the same instants (null elsewhere); ``truth`` (kind truth) at
-        every session row: ``true_x.. true_vx.. true_ax.. true_q0..3 true_roll
+        every session row: the unit's ``true_x.. true_vx.. true_ax.. true_q0..3 true_roll
         true_pitch true_yaw true_speed`` and, at the row nearest each gate's
         closest approach, ``true_event = "gate"``, ``true_gate``,
-        ``true_gate_distance``, ``true_turn``; ``survey`` (kind gates): ``gate``,
-        ``x y z`` [m] or ``lat lon h``, ``turn`` (L/R, the side the course turns
-        around the gate).  All three carry the course frame (origin on the snow
+        ``true_gate_distance`` (to the magnet's centre), ``true_turn``; ``survey`` (kind gates): ``gate``,
+        ``x y z`` [m] or ``lat lon h`` (the snow point above each magnet), ``turn`` (L/R, the side the
+        course turns around the gate).  All three carry the course frame (origin on the snow
         at the start, x along the fall-line azimuth, z down).
     """
     cfg = cfg or GatesConfig()
-    rng = np.random.default_rng(cfg.seed)
+    rng_body, rng_scene, rng_unit, rng_survey = (
+        np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(4)
+    )
     lat0, lon0, h0 = cfg.site
     g = normal_gravity(lat0, h0)
-    tru = _truth(cfg, rng, g)
+    tru = _truth(cfg, rng_body, g)
     body = None
     if cfg.body:  # the skier's posture and seven sensors (sportfusion.gates.sim_skier), calibration first
         from sportfusion.gates.sim_skier import attach_body
@@ -388,19 +559,14 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     c, ter = tru["course"], tru["terrain"]
     tf = tru["t"]
     gx, gy = c["gx"], c["gy"]
-    burial = cfg.burial * (1 + 0.2 * rng.uniform(-1, 1, gx.size))
-    magnets = np.stack([gx, gy, ter.z(gx, gy)], axis=-1) - burial[:, None] * ter.up_normal(gx, gy)
-    moment_local = np.array([0.0, 0.0, cfg.moment])
-    # spurious disturbances: small buried metal objects beside the track, between gates
-    spur = []
-    for _ in range(cfg.spurious):
-        i = rng.integers(1, gx.size - 1)
-        k = int(np.argmin(np.abs(tru["pos"][:, 0] - (gx[i] + gx[i + 1]) / 2 + rng.uniform(-3, 3))))
-        p = tru["pos"][k].copy()
-        p[2] += 0.5 + rng.uniform(0.0, 0.2)
-        p[1] += rng.uniform(-0.3, 0.3)
-        spur.append((p, rng.uniform(0.5, 0.8) * cfg.moment))
-    cross = _crossings(tru, magnets, c["sides"])
+    snow_g = np.stack([gx, gy, ter.z(gx, gy)], axis=-1)
+    magnets, centres, _ = gate_magnets(cfg.magnets, rng_scene, snow_g, ter.up_normal(gx, gy))
+    earth = reference_field(lat0, lon0, h0, cfg.date)
+    stray, anomaly = stray_sources(
+        cfg.stray, rng_scene, tru["pos"][::50], gx, ned_to_local(earth, cfg.azimuth_deg), ter.z
+    )
+    scene = MagneticScene(earth, cfg.azimuth_deg, magnets, stray, anomaly)
+    cross = _crossings(tru, centres, c["sides"])
 
     def at(x: np.ndarray, times: np.ndarray) -> np.ndarray:
         idx = np.clip(np.rint(times / FINE_DT).astype(int), 0, tf.size - 1)
@@ -409,40 +575,22 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     T = tf[-1]
     ti = np.round(np.arange(0.0, T, 1.0 / cfg.imu_rate) / FINE_DT) * FINE_DT
     q_i = at(tru["q"], ti)
-    a_ned = local_to_ned(at(tru["acc"], ti), cfg.azimuth_deg)
-    f_ned = a_ned.copy()
-    f_ned[:, 2] -= g
-    f_b = to_body(q_i, f_ned)
-    skiing = at(tru["skiing"], ti) > 0.5
-    acc = (
-        f_b
-        + rng.normal(0, cfg.acc_bias, 3)
-        + rng.normal(0, cfg.acc_noise, f_b.shape)
-        + rng.normal(0, cfg.acc_vibration, f_b.shape) * skiing[:, None]
-    )
-    w_b = at(body_rates(tru["q"], FINE_DT), ti)
-    walk = np.cumsum(rng.normal(0, cfg.gyr_bias_walk * np.sqrt(1.0 / cfg.imu_rate), w_b.shape), axis=0)
-    gyr = (
-        w_b
-        + rng.normal(0, cfg.gyr_bias, 3)
-        + walk
-        + rng.normal(0, cfg.gyr_noise, w_b.shape)
-        + rng.normal(0, cfg.gyr_vibration, w_b.shape) * skiing[:, None]
-    )
-    # magnetometer on every (imu_rate / mag_rate)-th IMU instant
+    f_ned = local_to_ned(at(tru["acc"], ti), cfg.azimuth_deg) - np.array([0.0, 0.0, g])
     step = int(round(cfg.imu_rate / cfg.mag_rate))
     tm = ti[::step]
-    pos_m = at(tru["pos"], tm)
-    b_loc = np.zeros_like(pos_m)
-    for m in magnets:
-        near = np.abs(pos_m[:, 0] - m[0]) < 15.0
-        b_loc[near] += dipole_field(pos_m[near] - m, moment_local)
-    for p, mom in spur:
-        near = np.abs(pos_m[:, 0] - p[0]) < 15.0
-        b_loc[near] += dipole_field(pos_m[near] - p, np.array([0.0, 0.0, mom]))
-    earth = reference_field(lat0, lon0, h0, cfg.date)
-    b_ned = earth + local_to_ned(b_loc, cfg.azimuth_deg)
-    mag = to_body(at(tru["q"], tm), b_ned) + rng.normal(0, cfg.mag_bias, 3) + rng.normal(0, cfg.mag_noise, b_loc.shape)
+    b_body = field_in_body(scene, at(tru["pos"], tm), at(tru["q"], tm))
+    acc, gyr, mag = measure_unit(
+        cfg.unit,
+        rng_unit,
+        ti,
+        to_body(q_i, f_ned),
+        at(body_rates(tru["q"], FINE_DT), ti),
+        at(tru["speed"], ti),
+        tm,
+        b_body,
+        at(tru["lean"], tm),
+        tru["t_run"],
+    )
 
     imu = Stream(
         "imu",
@@ -461,8 +609,8 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     if body is not None:
         from sportfusion.gates.sim_skier import body_streams
 
-        body["skiing_at"] = lambda times: at(tru["skiing"], times) > 0.5
-        streams += body_streams(body, ti, cfg, rng, g, body_rates)
+        rng_skin = np.random.default_rng(np.random.SeedSequence(cfg.seed).spawn(5)[4])  # the six other units
+        streams += body_streams(body, ti, cfg, rng_skin, g, body_rates, at(tru["speed"], ti), tru["t_run"])
     session, _ = merge_streams(streams)
     frame = {
         "name": "course",
@@ -492,7 +640,7 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     gid: list[int | None] = [None] * ts.size
     gdist: list[float | None] = [None] * ts.size
     gturn: list[str | None] = [None] * ts.size
-    for j in range(magnets.shape[0]):
+    for j in range(snow_g.shape[0]):
         r = int(np.argmin(np.abs(ts - cross["t"][j])))
         ev[r], gid[r], gdist[r], gturn[r] = "gate", j + 1, float(cross["distance"][j]), str(cross["turn"][j])
     cols["true_event"] = pa.array(ev, pa.string())
@@ -509,12 +657,12 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
 
     # --- survey of the magnets ---------------------------------------------
     sh, sv = cfg.survey_sigma
-    surveyed = magnets + rng.normal(0, 1, magnets.shape) * np.array([sh, sh, sv])
-    gate_no: list[int | None] = list(range(1, magnets.shape[0] + 1))
+    surveyed = snow_g + rng_survey.normal(0, 1, snow_g.shape) * np.array([sh, sh, sv])
+    gate_no: list[int | None] = list(range(1, snow_g.shape[0] + 1))
     turns: list[str | None] = [str(v) for v in cross["turn"]]
     if cfg.survey_spots:  # the snow points under the feet in the static postures, surveyed like the magnets
         spots = np.stack([tru["snow"][0], tru["snow"][-1]])
-        surveyed = np.vstack([surveyed, spots + rng.normal(0, 1, spots.shape) * np.array([sh, sh, sv])])
+        surveyed = np.vstack([surveyed, spots + rng_survey.normal(0, 1, spots.shape) * np.array([sh, sh, sv])])
         gate_no += [None, None]
         turns += [None, None]
     scol: dict[str, object] = {"gate": pa.array(gate_no, pa.int32())}
@@ -525,14 +673,15 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
         scol.update({"x": surveyed[:, 0], "y": surveyed[:, 1], "z": surveyed[:, 2]})
     scol["turn"] = pa.array(turns, pa.string())
     if cfg.survey_spots:
-        scol["point"] = pa.array(["gate"] * magnets.shape[0] + ["start", "finish"], pa.string())
+        scol["point"] = pa.array(["gate"] * snow_g.shape[0] + ["start", "finish"], pa.string())
     survey = pa.table(scol)
     survey_meta = sfmeta.new_meta("gates", cfg.date)
     survey_meta["frame"] = dict(frame)
     survey_meta["survey"] = {
         "sigma_h": sh,
         "sigma_v": sv,
-        "what": "buried magnet positions" + (", static start and finish spots" if cfg.survey_spots else ""),
+        "what": "snow points above the buried magnets"
+        + (", static start and finish spots" if cfg.survey_spots else ""),
         "coordinates": "WGS84" if survey_wgs84 else "course frame",
     }
-    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, magnets, cross, body)
+    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, snow_g, cross, centres, scene, body)

@@ -131,6 +131,16 @@ def _limb_frames(hip, knee, ankle, fallback_y):
     return out
 
 
+def _signed_lean(snow: np.ndarray, skiing: np.ndarray, dt: float, g: float = 9.81) -> np.ndarray:
+    """The inclination [rad] that balances the turn's lateral acceleration (positive leaning right), from the
+    snow path: ``atan(a_right / g)`` while skiing."""
+    v = np.gradient(snow[:, :2], dt, axis=0)
+    a = np.column_stack([_smooth(np.gradient(v[:, j], dt), 301) for j in range(2)])
+    sp = np.maximum(np.linalg.norm(v, axis=1), 1e-6)
+    right = np.column_stack([-v[:, 1], v[:, 0]]) / sp[:, None]
+    return np.arctan(np.sum(a * right, axis=1) / g) * skiing
+
+
 def build_skier(tru: dict, cfg: SkierConfig, rng: np.random.Generator, dt: float) -> dict:
     """The skier on the gates simulator's fine grid (module text), the calibration prepended.
 
@@ -142,7 +152,7 @@ def build_skier(tru: dict, cfg: SkierConfig, rng: np.random.Generator, dt: float
     snow, ter = tru["snow"], tru["terrain"]
     n_run = snow.shape[0]
     skiing = tru["skiing"]
-    lean = tru["roll"]
+    lean = _signed_lean(snow, skiing, dt)
     # heading and the snow-plane directions along the run
     vs = np.gradient(snow, dt, axis=0)
     head = np.unwrap(np.arctan2(vs[:, 1], vs[:, 0]))
@@ -296,62 +306,60 @@ def _quat_bo(r_sc: np.ndarray, azimuth_deg: float) -> np.ndarray:
     return q
 
 
-def attach_body(tru: dict, cfg, dt: float) -> tuple[dict, dict]:
+def attach_body(tru: dict, cfg, dt: float) -> tuple[dict, dict]:  # noqa: ANN001 - GatesConfig
     """Replace the gates simulator's sacrum truth by the skier's pelvis sensor (calibration prepended).
 
-    Returns the new ``tru`` (``pos vel acc q`` of the pelvis sensor, every array extended by the calibration)
-    and the body (:func:`build_skier`'s output plus ``dt``).
+    Returns the new ``tru`` (``pos vel acc q`` of the pelvis sensor; every other array of the fine grid
+    extended over the calibration by its first sample: the athlete stands at the start) and the body
+    (:func:`build_skier`'s output plus ``dt``).
     """
     rng = np.random.default_rng(cfg.seed + 7919)  # the body's own stream: the course is that of the same seed
     sk = SkierConfig(height=cfg.height, mass=cfg.body_mass, max_misalignment=cfg.max_misalignment)
     body = build_skier(tru, sk, rng, dt)
     nc = int(round(body["t_cal"] / dt))
+    n_run = tru["t"].size
     out = dict(tru)
-    n = tru["t"].size + nc
-    out["t"] = np.arange(n) * dt
+    for key, v in tru.items():
+        if isinstance(v, np.ndarray) and v.shape[:1] == (n_run,):
+            out[key] = np.concatenate([np.repeat(v[:1], nc, axis=0), v])
+    out["t"] = np.arange(n_run + nc) * dt
     ps = body["sensors"]["pelvis"]
     out["pos"] = ps["pos"]
     out["vel"] = np.gradient(out["pos"], dt, axis=0)
     out["acc"] = np.gradient(out["vel"], dt, axis=0)
     out["q"] = _quat_bo(ps["rot"], cfg.azimuth_deg)
-    for key in ("skiing", "roll", "height"):
-        out[key] = np.concatenate([np.full(nc, tru[key][0]), tru[key]])
-    out["snow"] = np.concatenate([np.repeat(tru["snow"][:1], nc, axis=0), tru["snow"]])
     out["t_run"] = (tru["t_run"][0] + body["t_cal"], tru["t_run"][1] + body["t_cal"])
     body["dt"] = dt
     body["sk"] = sk
     return out, body
 
 
-def body_streams(body: dict, ti: np.ndarray, cfg, rng: np.random.Generator, g: float, rates_of) -> list:
-    """IMU streams of the six sensors other than the pelvis (columns ``<segment>__acc_x`` ...), at times ``ti``."""
+def body_streams(
+    body: dict,
+    ti: np.ndarray,
+    cfg,  # noqa: ANN001 - GatesConfig
+    rng: np.random.Generator,
+    g: float,
+    rates_of,  # noqa: ANN001 - sportfusion.gates.sim.body_rates
+    speed: np.ndarray,
+    t_move: tuple[float, float],
+) -> list:
+    """IMU streams of the six sensors other than the pelvis (columns ``<segment>__acc_x`` ...), at times ``ti``:
+    each a unit like the pelvis one (:func:`sportfusion.gates.sim_sensors.measure_unit`: scale, misalignment,
+    bias, temperature, noise, quantisation, range and ski chatter growing with ``speed`` [m/s])."""
     from sportfusion.core.session import Stream
+    from sportfusion.gates.sim_sensors import measure_unit
 
     dt = body["dt"]
     k = np.clip(np.rint(ti / dt).astype(int), 0, body["com"].shape[0] - 1)
+    no_mag = (ti[:2], np.zeros((2, 3)), np.zeros(2))
     out = []
     for seg in SEGMENTS[1:]:
         s = body["sensors"][seg]
         acc = np.gradient(np.gradient(s["pos"], dt, axis=0), dt, axis=0)[k]
-        r = s["rot"][k]
-        f = np.einsum("nji,nj->ni", r, acc - np.array([0.0, 0.0, g]))  # course -> sensor
-        q = _quat_bo(s["rot"], cfg.azimuth_deg)
-        w = rates_of(q, dt)[k]
-        skiing = body["skiing_at"](ti)
-        walk = np.cumsum(rng.normal(0, cfg.gyr_bias_walk * np.sqrt(1.0 / cfg.imu_rate), w.shape), axis=0)
-        fa = (
-            f
-            + rng.normal(0, cfg.acc_bias, 3)
-            + rng.normal(0, cfg.acc_noise, f.shape)
-            + rng.normal(0, cfg.acc_vibration, f.shape) * skiing[:, None]
-        )
-        wg = (
-            w
-            + rng.normal(0, cfg.gyr_bias, 3)
-            + walk
-            + rng.normal(0, cfg.gyr_noise, w.shape)
-            + rng.normal(0, cfg.gyr_vibration, w.shape) * skiing[:, None]
-        )
+        f = np.einsum("nji,nj->ni", s["rot"][k], acc - np.array([0.0, 0.0, g]))  # course -> sensor
+        w = rates_of(_quat_bo(s["rot"], cfg.azimuth_deg), dt)[k]
+        fa, wg, _ = measure_unit(cfg.unit, rng, ti, f, w, speed, *no_mag, t_move)
         cols = {f"{seg}__acc_{a}": fa[:, i] for i, a in enumerate("xyz")}
         cols.update({f"{seg}__gyr_{a}": wg[:, i] for i, a in enumerate("xyz")})
         out.append(Stream(seg, ti, cols))

@@ -22,6 +22,8 @@ in file order and neither sort nor refuse out-of-order times themselves.
 from __future__ import annotations
 
 import importlib
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +32,8 @@ import pyarrow as pa
 
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.errors import InputError
+from sportfusion.core.io import regular_file
+from sportfusion.core.outputs import printable
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
@@ -148,10 +152,23 @@ def detect_format(path: Path) -> str:
 
 
 def read_recording(path: str | Path, fmt: str | None = None, opts: Options | None = None) -> Recording:
-    """Parse one raw input (format sniffed unless given)."""
+    """Parse one raw input (format sniffed unless given).
+
+    A pipe (``ingest <(cat file)``), a FIFO or a device is buffered into a temporary file first
+    (:func:`sportfusion.core.io.regular_file`), so it is sniffed and read like the file it carries.  A
+    damaged ZIP archive (a flipped bit: a CRC or decompression error) is an :class:`InputError`.
+    """
     p = Path(path)
-    fmt = fmt or detect_format(p)
-    rec = _module(fmt).read(p, opts or Options())
+    with regular_file(p) as q:
+        fmt = fmt or detect_format(q)
+        try:
+            rec = _module(fmt).read(q, opts or Options())
+        except (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, EOFError) as exc:
+            raise InputError(
+                f"{printable(str(p))}: a damaged ZIP archive ({printable(str(exc))}); expected an intact export"
+            ) from exc
+    if q != p:
+        rec.source = str(p)
     if not any(len(s.t) for s in rec.streams):
         raise InputError(f"{p}: no samples found in this {fmt} input")
     return rec

@@ -102,7 +102,7 @@ def gate_crossings(table: pa.Table) -> list[tuple[float, int]]:
 
 def turn_rows(table: pa.Table, surveyed: list[int]) -> list[tuple[Any, ...]]:
     """One row per surveyed gate (and per unmatched crossing): the turn's figures (gate-anchor's turn_*
-    columns) or why there are none -- the rules of ``sportfusion.gates.pipeline.turn_figures``: a turn needs
+    columns) or why there are none -- the rules of ``sportfusion.gates.turns.turn_figures``: a turn needs
     a matched crossing with a crossing before and after it and a turn switch in each interval."""
     t = schema.floats(table, "t")
     cross = gate_crossings(table)

@@ -14,8 +14,10 @@ tables in the session contract (SI units: m, s, m/s, rad) with their metadata di
 * :func:`simulate_skijump` -- truth and noisy sensors of a jump on a hill (§4.2).
 
 Modules: ``hill``/``hillfile`` (profile geometry, hill files), ``events``, ``kinematics``/``model``
-(eqs 22, 35-51), ``smoother_inputs`` (configuration, constraint windows, the session's inputs),
-``smoother`` (the run and its output columns), ``smoother_fast`` (the compiled EKF+RTS loop),
+(eqs 22, 35-51), the smoother in its stages -- ``smoother`` (the pipeline: ``rts_smooth_table``),
+``smoother_inputs`` (configuration, constraint windows, the session on the IMU steps), ``smoother_start``
+(the initial state), ``smoother_engine`` (one EKF + RTS run: the numpy reference and the C loop of
+``_ski_c.c``), ``smoother_passes`` (the runs over each segment), ``smoother_outputs`` (the output columns) --
 ``metrics``, ``plots``, ``sim/`` (the jump simulator), ``video/`` (the video reference).
 """
 

@@ -1,15 +1,29 @@
-/* The ski-jump EKF + RTS loop (sportfusion.skijump.smoother_fast.ski_ekf_rts) as a C extension.
+/* The ski-jump EKF + RTS loop as a C extension: the fast path of rts-smooth's engine.
  *
- * Why C as well as numba: rts-smooth pays numba's import and the building of its CPU target context
- * on every run (about 0.7 s of CPU, more than the smoothing of a 60k-step session); this module
- * imports in about a millisecond.  Same equations as the numba kernel (which stays the fallback when
- * this extension is not built); both are tested against the numpy reference.  See smoother_fast.py's
- * module text for the arithmetic (scalar updates in the expanded Joseph form, packed covariances, the
- * parameter rows of the RTS gain known).  Beyond it, the loops skip the known zeros of A and Phi
- * (position and magnetometer columns), the backward pass reuses the prediction's Phi P for the gain, and
- * the loops are arranged for vectors and registers; every element still sums the same nonzero terms in
- * the same order, so the baseline build (-DSKI_NO_CLONES) gives the results of the plain loops to the
- * last bit, and the AVX2/FMA clone differs from them by FMA's single rounding (~1e-11 on 60k steps).
+ * Its numpy reference is sportfusion.estimators.kalman.ekf_rts driven by
+ * sportfusion.skijump.smoother_engine.model_callables (the model of skijump/model.py: eqs 10-22, 35-51), and the
+ * standard deviations of sportfusion.skijump.smoother_outputs._std_from_cov; tests/test_rts_smooth.py compares the
+ * two on the same inputs (states to 1e-9, covariances to 1e-10).  The same equations, arranged for speed:
+ *
+ * - the measurements of a step (all with a diagonal R) are applied one scalar at a time, every residual and
+ *   Jacobian evaluated at the prior x_k|k-1 and corrected by -h (x - x_k|k-1) for the rows applied before it:
+ *   with a diagonal R this is algebraically the stacked update; each scalar update is the Joseph form with the
+ *   optimal gain, which reduces to the symmetric rank-1 P - (P h)(P h)^T / s (as g g^T with g = P h / sqrt(s));
+ * - covariances are stored packed (upper triangle, 253 numbers for 22 states), and the smoothed covariance
+ *   overwrites the filtered one in the backward pass;
+ * - the backward pass forms Phi_k and P_k+1|k again from x_k|k and P_k|k (or reads the forward pass's, pred),
+ *   and uses that the parameters are constant states without process noise (eq 22): the rows of the RTS gain
+ *   that belong to them are exactly [0 I], so only the 10 rows of the kinematic states are solved for;
+ * - positive definiteness is checked by finite positive variances after every update and prediction, and by
+ *   the Cholesky factor of every P_k+1|k in the backward pass;
+ * - the output's standard deviations are formed from each smoothed covariance as it is made (std_row).
+ *
+ * Beyond that, the loops skip the known zeros of A and Phi (position and magnetometer columns), the backward
+ * pass reuses the prediction's Phi P for the gain, and the loops are arranged for vectors and registers; every
+ * element still sums the same nonzero terms in the same order, so the baseline build (-DSKI_NO_CLONES) gives
+ * the results of the plain loops to the last bit, and the AVX2/FMA clone differs from them by FMA's single
+ * rounding (~1e-11 on 60k steps).  The two helpers of the alignment (body_to_start, latency_misfit) mirror
+ * numpy functions of sportfusion.skijump.alignment, named where they are defined.
  *
  * Arrays travel through the buffer protocol (no numpy headers needed to build); the Python side
  * (sportfusion.skijump._ski_native) passes C-contiguous float64 arrays and preallocated outputs.
@@ -47,7 +61,7 @@
 /* Runtime dispatch: with GCC 11 or later on x86-64 Linux (glibc's ifunc), the hot functions are compiled twice,
    for x86-64-v3 (AVX2 and FMA: about 20 % less time here) and for the baseline x86-64, and the loader picks one by
    the CPU.  Other compilers and platforms (or -DSKI_NO_CLONES) build the baseline alone.  FMA rounds a * b + c once:
-   results differ from the baseline build's in the last bits (numba, built for the host CPU, contracts too). */
+   results differ from the baseline build's in the last bits. */
 #if defined(__x86_64__) && defined(__linux__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) && \
     __GNUC__ >= 11 && !defined(SKI_NO_CLONES)
 #define HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
@@ -106,7 +120,7 @@ static void dmdq(const double *q, double D[4][3][3]) {
     D[3][2][0] = q1; D[3][2][1] = q2; D[3][2][2] = q3;
 }
 
-/* the kinematics (eqs 22, 44-46) */
+/* the kinematics (eqs 22, 44-46): model.f_aug */
 static void f_kin(const double *x, const double *u, double g0, const double *mno, double *out) {
     double M[3][3];
     for (int i = 0; i < N; i++) out[i] = 0.0;
@@ -127,6 +141,8 @@ static void f_kin(const double *x, const double *u, double g0, const double *mno
     out[9] = 0.5 * (-q2 * wx + q1 * wy + q0 * wz);
 }
 
+/* one RK4 step of the kinematics (the input u0 at the start, (u0 + u1) / 2 at the midpoints, u1 at the end):
+   model.rk4_aug */
 HOT static void rk4(const double *x, const double *u0, const double *u1, double dt, double g0, const double *mno,
                 double *out) {
     double k1[N], k2[N], k3[N], k4[N], xt[N], um[6];
@@ -141,7 +157,8 @@ HOT static void rk4(const double *x, const double *u0, const double *u1, double 
     for (int i = 0; i < N; i++) out[i] = x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
 }
 
-/* top rows of Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T (eqs 7, 9, 13) */
+/* top rows of Phi = I + A dt + (A dt)^2 / 2 and Qd = Gamma Q Gamma^T (eqs 7, 9, 13): model.jac_a, model.jac_f and
+   model.discrete, without the zeros of the parameter rows */
 HOT static void phi_qd(const double *x, const double *u, double dt, double g0, const double *mno, const double *qd,
                    double Phi[10][N], double Qd[10][10]) {
     double A[10][A_HI], F[10][6], G[10][6], M[3][3], D[4][3][3];
@@ -295,7 +312,8 @@ HOT static void predict_cov(double P[N][N], double Phi[10][N], double Qd[10][10]
     outer_blocks(T, P, out);
 }
 
-/* one scalar update, residual r0 - h (x - xp), expanded Joseph form; 0 when not positive definite.  h's entries
+/* one scalar update (kalman._update's Joseph form, one row at a time), residual r0 - h (x - xp); 0 when not
+   positive definite.  h's entries
    that can be nonzero are nz[0..cnt) (ascending; the caller knows them: an entry that happens to be 0 adds exact
    zeros).  Reads and updates P's upper triangle only (P is symmetric: mirror() restores the lower one before it is
    read) */
@@ -417,7 +435,8 @@ static inline void put_row(double *base, Py_ssize_t ld, Py_ssize_t k, const doub
 
 static double sqrt0(double v) { return v >= 0.0 ? sqrt(v) : (v < 0.0 ? 0.0 : v); }
 
-/* standard deviations at one step: the states' (22), the hill-frame velocity's (3), roll/pitch/yaw's (3) */
+/* standard deviations at one step: the states' (22), the hill-frame velocity's (3), roll/pitch/yaw's (3) --
+   smoother_outputs._std_from_cov's formulas (the Euler angles' Jacobian: smoother_outputs.euler_jacobian) */
 HOT static void std_row(const double *x, double P[N][N], const double *mno, double *out) {
     double M[3][3], D[4][3][3], J[3][7];
     for (int i = 0; i < N; i++) out[i] = sqrt0(P[i][i]);
@@ -621,7 +640,9 @@ static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], doubl
    (body velocity and quaternion), the in-run and landing heights (x and z), the in-run's lateral position */
 static const int NZ_Q[4] = {6, 7, 8, 9}, NZ_V[7] = {3, 4, 5, 6, 7, 8, 9}, NZ_H[2] = {0, 2}, NZ_Y[1] = {1};
 
-/* the forward pass and (smooth) the backward pass; returns the failing step or -1, *phase as numba's */
+/* The whole EKF + RTS (kalman.ekf_rts with smoother_engine.model_callables, see the top of this file): the
+   forward pass and (smooth) the backward pass; returns the failing step or -1, *phase 0 update, 1 prediction,
+   2 backward pass */
 HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
                       const double *mag, const double *inrun, const double *landing, const double *still,
                       const double *x0, const double *P0,
@@ -803,7 +824,7 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
 static const char doc_ekf_rts[] =
     "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, still, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
     "        x_filt, x_pred, x_smooth, P_packed, resid, std[, pred]) -> (fail, phase)\n\n"
-    "The ski-jump EKF + RTS of smoother_fast.ski_ekf_rts on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
+    "The ski-jump EKF + RTS (kalman.ekf_rts with smoother_engine.model_callables) on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
     "written), smoothed_cov (0: with smooth, P_packed keeps the filtered covariances; only std is wanted), then\n"
@@ -895,6 +916,8 @@ static const char doc_body_to_start[] =
     "product C_k+1 = C_k exp([w_k dt x]) (Rodrigues, w_k = gyr_k - bias held over the step): t (n), gyr (n, 3),\n"
     "bias (3); out (n, 3, 3) receives every C_k, or (1, 3, 3) only the last.";
 
+/* alignment._body_to_start_numpy's product of the steps' rotations (the numpy reference; the same Rodrigues
+   formula and the same order of products) */
 static PyObject *py_body_to_start(PyObject *self, PyObject *args) {
     PyObject *o[4];
     if (!PyArg_ParseTuple(args, "OOOO", &o[0], &o[1], &o[2], &o[3])) return NULL;
@@ -953,7 +976,8 @@ static const char doc_latency_misfit[] =
     "increasing) and subtracted from the GNSS velocities vg (f, 3); per axis the constant (the mean) and the drift\n"
     "over tg - mean(tg) removed; out (g) receives the sum of the squares left.  work: at least 3 f items of scratch.";
 
-/* the residuals' squares left after a constant and a drift per axis, delay by delay (gnss_latency's sums) */
+/* the residuals' squares left after a constant and a drift per axis, delay by delay: alignment._latency_misfit_numpy
+   (gnss_latency's sums) */
 static void latency_misfit(Py_ssize_t k, const double *ts, const double *v, Py_ssize_t f, const double *tg,
                            const double *vg, Py_ssize_t g, const double *grid, double *r, double *out) {
     double tm = 0.0, tt = 0.0;
@@ -1024,7 +1048,7 @@ static PyMethodDef methods[] = {
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "_ski_c", "Compiled ski-jump EKF + RTS smoother (the numba kernel's equations, in C).", -1,
+    PyModuleDef_HEAD_INIT, "_ski_c", "Compiled ski-jump EKF + RTS smoother (smoother_engine's numpy reference, in C).", -1,
     methods,
 };
 

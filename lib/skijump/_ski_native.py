@@ -1,12 +1,13 @@
-"""Which compiled ski-jump smoother runs: the C extension when it is built, else numba.
+"""The ski-jump C extension (``_ski_c.c``): the smoother's EKF + RTS loop, and two helpers of the alignment.
 
-:mod:`sportfusion.skijump._ski_c` (C, built by ``setup.py`` as an optional extension) imports in about
-a millisecond; numba's import and the building of its target context when the first cached kernel is
-loaded cost about 0.7 s of CPU per ``rts-smooth`` run -- more than smoothing a 60k-step session.
-Both run the same equations (``_ski_c.c``, :mod:`sportfusion.skijump.smoother_fast`; they differ in the last
-bits: numba re-associates sums, the C kernel's x86-64-v3 clone fuses multiply-adds);
-without the extension (no C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the environment)
-the numba kernel does the work.  This module also holds the layout both share (no numba import here).
+:mod:`sportfusion.skijump._ski_c` is built by ``setup.py`` as an optional extension and imports in about a
+millisecond.  :func:`ski_ekf_rts` allocates the outputs and calls its loop; the engine
+(:mod:`sportfusion.skijump.smoother_engine`) is its one caller, and its numpy reference is
+:func:`sportfusion.estimators.kalman.ekf_rts` with the engine's ``model_callables``.  Without the extension (no
+C compiler at install time, or ``SPORTFUSION_NATIVE=0`` in the environment) :func:`native` is None and the
+engine runs that reference.  The alignment's gyro product and latency misfit
+(:mod:`sportfusion.skijump.alignment`) use the extension's two other functions where it is built.  This
+module also holds the loop's layout (packed covariances, residual and std columns).
 """
 
 from __future__ import annotations
@@ -105,7 +106,18 @@ def ski_ekf_rts(
     rzu, ir_x0, ir_step, ir_z, ir_dz, la_x0, la_step, la_z, la_dz, use_hill, use_vel, use_mag, smooth,
     filtered_cov=True, smoothed_cov=True, out=None, work=None,
 ):  # fmt: skip  # noqa: ANN001, ANN201
-    """:func:`sportfusion.skijump.smoother_fast.ski_ekf_rts` (same arguments, same returns) in C.
+    """Forward EKF and (``smooth``) backward RTS over all steps, in C (``_ski_c.c``'s ``run``).
+
+    The arguments are the segment's arrays (``t`` (n,), ``u`` (n, 6), ``pos``, ``vel``, ``mag`` (n, 3) NaN where
+    absent, the constraint windows and still weights (n,)), the initial state and covariance, gravity,
+    ``M_NO``, the reference field, the input noise per step (n, 6), the measurement variances, the profile
+    tables (origin, step, ``z``, ``dz/dx``) and the switches; the model and its numpy reference are
+    :mod:`sportfusion.skijump.smoother_engine`'s (the caller).  Returns ``(x_filt, x_smooth, P_packed, resid,
+    fail, phase, std)``: the states (n, 22) (``x_smooth`` is ``x_filt`` without ``smooth``), the packed
+    covariances (n, 253; the smoothed ones, or the filtered ones without ``smooth``), the innovations (n, NRES)
+    in :data:`RESIDUALS`' order (NaN where absent), the step at which a covariance stopped being positive
+    definite (-1: none) and in which phase (0 update, 1 prediction, 2 backward pass), and the smoothed
+    standard deviations (n, NSTD; (0, NSTD) without ``smooth``).
 
     ``filtered_cov=False`` with ``smooth=False``: the filtered covariances are not kept (the returned
     packed covariances are an empty (0, 253) array): a forward run for its states alone then writes

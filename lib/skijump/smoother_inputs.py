@@ -1,5 +1,10 @@
 """Inputs of the ski-jump smoother: configuration, constraint windows and the session on the IMU steps.
 
+The first stage of ``rts-smooth`` (:mod:`sportfusion.skijump.smoother`): everything later stages read comes
+from here -- the initial state (:mod:`sportfusion.skijump.smoother_start`), the engine
+(:mod:`sportfusion.skijump.smoother_engine`) and the output columns (:mod:`sportfusion.skijump.smoother_outputs`)
+take a :class:`SkiJumpInputs`, the hill included (its profile's tables), and never the table or the hill.
+
 * :class:`SmootherConfig` -- ``P0``, ``Q``, ``R`` of Tables 3-5 as 1-sigma values, overridable from TOML
   (:func:`load_config`);
 * :func:`session_events`, :func:`constraint_windows` -- take-off/touch-down per jump and the windows of
@@ -9,10 +14,8 @@
   first rest after it;
 * :func:`still_steps` -- where the athlete stands still (GNSS speed and IMU spread): zero-velocity updates;
 * :func:`session_inputs` -- the IMU samples as steps [s], GNSS in the hill frame [m] and NED velocity
-  [m/s], magnetometer [uT] on the step they fall on, the profile tables;
+  [m/s], magnetometer [uT] on the step they fall on, the profile tables (:class:`ProfileTable`);
 * :func:`segments` -- the session cut at IMU gaps longer than ``max_gap`` [s].
-
-The run itself is :mod:`sportfusion.skijump.smoother`.
 """
 
 from __future__ import annotations
@@ -139,6 +142,10 @@ def load_config(path: str | Path | None, base: SmootherConfig | None = None) -> 
         return cfg
     try:
         doc = tomllib.loads(Path(path).read_text())
+    except UnicodeDecodeError:
+        raise InputError(
+            f"config {path}: not UTF-8 text (a binary file?); expected a TOML file of smoother settings"
+        ) from None
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise InputError(f"config {path}: {exc}; expected a TOML file of smoother settings") from None
     doc = doc.get("rts", doc)
@@ -224,6 +231,8 @@ class SkiJumpInputs:
     clipped: np.ndarray | None = None  # (n, 6) bool: gyro and accelerometer axes clipped (sensor range)
     still: np.ndarray | None = None  # (n,) weight 0..1 of the zero-velocity update (0: moving)
     mag_disturbed: np.ndarray | None = None  # (n,) bool: magnetometer samples skipped as disturbed
+    #: the hill's in-run and landing profiles tabulated for the constraints (:func:`profile_tables`); None: no hill
+    profile: tuple[ProfileTable, ProfileTable] | None = None
 
 
 def _to_steps(t_rows: np.ndarray, rows_ok: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -432,33 +441,8 @@ def session_inputs(
     t = t_rows[rows]
     u = imu if rows.size == imu.shape[0] else imu[rows]
     frame, pos_rows = _hill_frame(table, meta, hill)
-    pos_ok = finite_rows(pos_rows)
-    if not pos_ok.any():
-        raise InputError("no GNSS position in the session; expected GNSS fixes (gnss_x/y/z or lat/lon/h)")
-    _check_hill_near(pos_rows[pos_ok], hill)
-    pos = _to_steps(t_rows, pos_ok, pos_rows, t)
-    if np.isfinite(pos[:, 0]).sum() == 0:
-        raise InputError("no GNSS fix falls within the IMU recording; expected overlapping GNSS and IMU data")
-    if set(VEL_COLUMNS) <= set(table.column_names):
-        v_rows = schema.float_columns(table, VEL_COLUMNS)
-        vel = _to_steps(t_rows, finite_rows(v_rows), v_rows, t)
-    else:
-        vel = np.full((t.size, 3), np.nan)
-    if set(MAG_COLUMNS) <= set(table.column_names):
-        m_rows = schema.float_columns(table, MAG_COLUMNS)
-        mag = _to_steps(t_rows, finite_rows(m_rows), m_rows, t)
-    else:
-        mag = np.full((t.size, 3), np.nan)
-    # magnetic disturbances (core.magdisturb): skipped.  The raw magnetometer is not calibrated (the smoother
-    # estimates its bias and scale), so the reference strength is the median of each IMU segment (between
-    # logging pauses; a phone may recalibrate its magnetometer between two recordings), not the model's.
-    disturbed = np.zeros(t.size, dtype=bool)
-    okm = finite_rows(mag)
-    for a, b in segments(t, cfg.max_gap):
-        sel = np.flatnonzero(okm[a:b]) + a
-        if sel.size > 10:
-            disturbed[sel] = mag_disturbed(t[sel], mag[sel], None)
-    mag[disturbed] = np.nan
+    pos, vel, mag = _gnss_and_mag_on_steps(table, t_rows, t, pos_rows, hill)
+    disturbed = _skip_disturbed_mag(t, mag, cfg.max_gap)
     jumps = session_events(table, takeoff, touchdown, meta)
     for a, b in jumps:
         for name, te in (("take-off", a), ("touch-down", b)):
@@ -492,8 +476,46 @@ def session_inputs(
         clipped=clipped_steps(t, u, cfg),
         mag_disturbed=disturbed,
         still=still_steps(t, u, st, sv, cfg) if cfg.zupt else None,
+        profile=profile_tables(hill),
     )
     return inp, frame
+
+
+def _gnss_and_mag_on_steps(
+    table: pa.Table, t_rows: np.ndarray, t: np.ndarray, pos_rows: np.ndarray, hill: Hill
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """GNSS positions (hill frame [m], from ``pos_rows``) and NED velocities [m/s], magnetometer [uT]: each (n, 3)
+    on the IMU steps ``t`` (the nearest within half a step), NaN where a sensor did not sample."""
+    pos_ok = finite_rows(pos_rows)
+    if not pos_ok.any():
+        raise InputError("no GNSS position in the session; expected GNSS fixes (gnss_x/y/z or lat/lon/h)")
+    _check_hill_near(pos_rows[pos_ok], hill)
+    pos = _to_steps(t_rows, pos_ok, pos_rows, t)
+    if np.isfinite(pos[:, 0]).sum() == 0:
+        raise InputError("no GNSS fix falls within the IMU recording; expected overlapping GNSS and IMU data")
+    out = [pos]
+    for names in (VEL_COLUMNS, MAG_COLUMNS):
+        if set(names) <= set(table.column_names):
+            rows = schema.float_columns(table, names)
+            out.append(_to_steps(t_rows, finite_rows(rows), rows, t))
+        else:
+            out.append(np.full((t.size, 3), np.nan))
+    return out[0], out[1], out[2]
+
+
+def _skip_disturbed_mag(t: np.ndarray, mag: np.ndarray, max_gap: float) -> np.ndarray:
+    """Magnetic disturbances (:mod:`sportfusion.core.magdisturb`) set to NaN in ``mag`` (in place); returns their
+    mask (n,).  The raw magnetometer is not calibrated (the smoother estimates its bias and scale), so the
+    reference strength is the median of each IMU segment (between logging pauses; a phone may recalibrate its
+    magnetometer between two recordings), not the model's."""
+    disturbed = np.zeros(t.size, dtype=bool)
+    okm = finite_rows(mag)
+    for a, b in segments(t, max_gap):
+        sel = np.flatnonzero(okm[a:b]) + a
+        if sel.size > 10:
+            disturbed[sel] = mag_disturbed(t[sel], mag[sel], None)
+    mag[disturbed] = np.nan
+    return disturbed
 
 
 def still_steps(
@@ -565,6 +587,7 @@ def segments(t: np.ndarray, max_gap: float) -> list[tuple[int, int]]:
 
 
 def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
+    """Steps ``a .. b - 1`` of ``inp`` (views; ``mag_disturbed`` is the session's alone)."""
     sl = slice(a, b)
     return SkiJumpInputs(
         t=inp.t[sl],
@@ -581,4 +604,5 @@ def _slice(inp: SkiJumpInputs, a: int, b: int) -> SkiJumpInputs:
         landing=inp.landing[sl],
         clipped=None if inp.clipped is None else inp.clipped[sl],
         still=None if inp.still is None else inp.still[sl],
+        profile=inp.profile,
     )

@@ -1,5 +1,10 @@
 """``rts-smooth``'s output columns from the smoothed states: estimates, standard deviations, constraint
-values, and their interpolation onto the table's rows (split from :mod:`sportfusion.skijump.smoother`)."""
+values, and their interpolation onto the table's rows.
+
+The last stage of ``rts-smooth`` (:mod:`sportfusion.skijump.smoother`): arrays of the engine's run and the
+inputs in, named columns out.  :func:`_std_from_cov` is the numpy reference of the standard deviations the
+C loop computes in its backward pass (``_ski_c.c``'s ``std_row``).
+"""
 
 from __future__ import annotations
 
@@ -10,9 +15,8 @@ import numpy as np
 
 from sportfusion.core import rotations
 from sportfusion.skijump import model as mdl
-from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.kinematics import m_bo, m_no
-from sportfusion.skijump.smoother_inputs import SkiJumpInputs, profile_tables, segments
+from sportfusion.skijump.smoother_inputs import SkiJumpInputs, segments
 
 
 def _interp_rows(t_rows: np.ndarray, t: np.ndarray, values: np.ndarray, max_gap: float) -> np.ndarray:
@@ -51,10 +55,11 @@ def euler_jacobian(q: np.ndarray) -> np.ndarray:
     return J
 
 
-def _interp_columns(
+def interp_columns(
     t_rows: np.ndarray, t: np.ndarray, cols: dict[str, np.ndarray], max_gap: float
 ) -> dict[str, np.ndarray]:
-    """:func:`_interp_rows` column by column (no (rows, columns) stack)."""
+    """:func:`_interp_rows` column by column (no (rows, columns) stack): ``cols`` at the steps ``t`` [s] ->
+    the table's rows ``t_rows`` [s], linear in time, NaN outside the IMU segments (gaps over ``max_gap``)."""
     segs = segments(t, max_gap)
     inside = [(a, b, np.flatnonzero((t_rows >= t[a]) & (t_rows <= t[b - 1]))) for a, b in segs]
     out = {}
@@ -66,7 +71,7 @@ def _interp_columns(
     return out
 
 
-def _estimate_columns(
+def estimate_columns(
     x: np.ndarray,
     cov: Callable[..., np.ndarray] | None,
     inp: SkiJumpInputs,
@@ -160,14 +165,15 @@ def _std_from_cov(
     return d, sv, se
 
 
-def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill: Hill | None) -> dict[str, np.ndarray]:
-    """Constraint values (eq 51) at the states ``x`` (n, 22): NaN where a hill constraint is inactive."""
+def constraint_residuals(x: np.ndarray, inp: SkiJumpInputs, hill_constraints: bool = True) -> dict[str, np.ndarray]:
+    """Constraint values (eq 51) at the states ``x`` (n, 22): NaN where a hill constraint is inactive (all of
+    them without ``hill_constraints`` or without the hill's profile in ``inp``)."""
     out = {"c_q": np.linalg.norm(x[:, 6:10], axis=1) - 1.0}
     nan = np.full(x.shape[0], np.nan)
-    if hill is None:
+    if not hill_constraints or inp.profile is None:
         out.update(c_v_ir=nan, c_h_ir=nan.copy(), c_v_la=nan.copy())
         return out
-    ir, la = profile_tables(hill)
+    ir, la = inp.profile
     out["c_v_ir"] = np.where(inp.inrun, x[:, 2] - ir.many(x[:, 0]), np.nan)
     out["c_h_ir"] = np.where(inp.inrun, x[:, 1], np.nan)
     out["c_v_la"] = np.where(inp.landing > 0, x[:, 2] - la.many(x[:, 0]), np.nan)

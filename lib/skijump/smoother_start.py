@@ -1,10 +1,14 @@
-"""The smoother's initial state (skijump §4.1) and the forward run that re-linearises it.
+"""The smoother's initial state (skijump §4.1), and what re-linearises it over the start window.
 
-:func:`initial_state`: position and NED velocity of the first GNSS fix, the gyro bias the mean rate over the
-rest at the gate (:func:`_initial_rest`), the attitude from the in-run alignment
-(:func:`sportfusion.skijump.alignment.inrun_attitude`) or QUEST over the rest, ``P0`` from Table 3.
-:func:`_after_rest` moves that state to the rest's end, where the forward run over the start window begins;
-:func:`_forward_start` carries that run's result back to step 0 (:func:`sportfusion.skijump.smoother.smooth_inputs`).
+The second stage of ``rts-smooth`` (:mod:`sportfusion.skijump.smoother`), from a segment's inputs alone:
+
+* :func:`initial_state`: position and NED velocity of the first GNSS fix, the gyro bias the mean rate over the
+  rest at the gate (:func:`_initial_rest`), the attitude from the in-run alignment
+  (:func:`sportfusion.skijump.alignment.inrun_attitude`) or QUEST over the rest, ``P0`` from Table 3;
+* :func:`start_window`: the steps whose runs re-linearise it (the start, up to the in-run's end);
+* :func:`_after_rest` moves that state to the rest's end, where the forward run over the start window begins;
+  :func:`_forward_start` carries that run's result back to step 0.  The runs themselves are the engine's
+  (:mod:`sportfusion.skijump.smoother_passes` calls both).
 """
 
 from __future__ import annotations
@@ -92,6 +96,18 @@ def initial_state(
     )
     P0 = np.diag(np.asarray(p, float) ** 2)
     return (x0, P0, qa is not None, int(w.sum())) if with_source else (x0, P0)
+
+
+def start_window(seg: SkiJumpInputs, cfg: SmootherConfig) -> int:
+    """Steps [0, nw) of the start window that needs re-linearising: the start up to the in-run's end (the first
+    take-off in the segment plus ``cfg.pass_after_takeoff`` [s]), at least ``cfg.pass_window`` [s] and 2 steps,
+    at most the segment."""
+    t_end = seg.t[0] + cfg.pass_window
+    tos = [a for a, _ in seg.jumps if seg.t[0] <= a <= seg.t[-1]]
+    if tos:
+        t_end = max(t_end, min(tos) + cfg.pass_after_takeoff)
+    nw = int(np.searchsorted(seg.t, t_end, side="right"))
+    return max(min(nw, seg.t.size), 2)
 
 
 def _start_velocity(inp: SkiJumpInputs, x0: np.ndarray) -> None:

@@ -519,6 +519,8 @@ def gate_positions(
     """
     from sportfusion.core.io import survey_points
 
+    if gates.num_rows == 0:
+        raise InputError("the gates table has no rows; expected one row per gate (gate, x, y, z)")
     gates, _ = survey_points(gates)
     names = set(gates.column_names)
     ids = gates.column("gate").to_pylist()
@@ -586,7 +588,9 @@ def compare_tables(
                 "expected runs converted with the same gps2hill --origin and --azimuth"
             )
     tracks, crossings = [], []
-    positions = None
+    # the survey is checked whether or not a run needs it (a table without positions or rows is refused)
+    positions = gate_positions(gates[0], gates[1], runs[0][2]) if gates is not None else None
+    used = False
     for lab, table, meta in runs:
         tr, w = track_from_table(table, lab)
         warnings += w
@@ -597,9 +601,8 @@ def compare_tables(
                     f"run {lab} has no gate crossings (no rows with event 'gate' and a gate id); "
                     "give --gates FILE to take them at the closest approach to the surveyed gates"
                 )
-            if positions is None:
-                positions = gate_positions(gates[0], gates[1], meta)
-            c, nearest = closest_approach(tr, positions, max_gate_distance)
+            used = True
+            c, nearest = closest_approach(tr, gate_positions(gates[0], gates[1], meta), max_gate_distance)
             if not c.times:
                 near = f" (nearest: {nearest[0]:.1f} m from gate {nearest[1]})" if nearest else ""
                 raise InputError(
@@ -608,6 +611,11 @@ def compare_tables(
                 )
         tracks.append(tr)
         crossings.append(c)
+    if positions is not None and not used:
+        warnings.append(
+            "the gates table was not used: every run has its own gate crossings (event 'gate'), so the closest "
+            "approaches (and --max-gate-distance) play no part"
+        )
     cols, info, w = compare(labels, tracks, crossings)
     warnings += w
     info["crossings"] = {lab: c.source for lab, c in zip(labels, crossings, strict=True)}

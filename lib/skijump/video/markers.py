@@ -114,13 +114,46 @@ def make_markers(distance: object, y: object, col: object, row: object, where: s
     return m
 
 
+def check_order(m: Markers, where: str = "markers") -> None:
+    """Refuse distances that run backwards along a marker line in the image.
+
+    A homography keeps the order of points along a line, so a line's markers sorted by distance must
+    advance one way in the image (projected on the chord from its first to its last marker), and every
+    line the same way down the slope.  A swapped or reversed distance would otherwise be fitted.
+    """
+    chords = []
+    for v in m.lines():
+        on = np.flatnonzero(m.y == v)
+        if on.size < 2:
+            continue
+        k = on[np.argsort(m.distance[on], kind="stable")]
+        px = np.stack((m.col[k], m.row[k]), -1)
+        chord = px[-1] - px[0]
+        along = (px - px[0]) @ chord
+        bad = np.flatnonzero(np.diff(along) <= 0)
+        if bad.size:
+            a, b = m.distance[k[bad[0]]], m.distance[k[bad[0] + 1]]
+            raise InputError(
+                f"{where}: on the marker line y = {v:g} m the distances run backwards in the image ({a:g} m and "
+                f"{b:g} m are out of order); expected each line's distances to increase one way along it"
+            )
+        chords.append((v, chord))
+    for (v0, c0), (v1, c1) in zip(chords, chords[1:], strict=False):
+        if float(c0 @ c1) <= 0:
+            raise InputError(
+                f"{where}: the distances on the marker lines y = {v0:g} m and y = {v1:g} m run in opposite "
+                "directions in the image; expected both to increase down the slope"
+            )
+
+
 def read_markers(path: str | Path) -> Markers:
     """Read a marker CSV (see the module text).
 
     Raises
     ------
     InputError
-        Unreadable file, missing columns, non-numeric values or too few markers.
+        Unreadable file, missing columns, non-numeric values, too few markers, or distances that run
+        backwards along a marker line (:func:`check_order`).
     """
     p = Path(path)
     try:
@@ -143,7 +176,9 @@ def read_markers(path: str | Path) -> Markers:
                 vals[c].append(float((rec.get(c) or "").strip()))
             except ValueError as exc:
                 raise InputError(f"marker file {p}, data line {k}: '{c}' is {rec.get(c)!r}; expected a number") from exc
-    return make_markers(*(vals[c] for c in COLUMNS), where=f"marker file {p}")
+    markers = make_markers(*(vals[c] for c in COLUMNS), where=f"marker file {p}")
+    check_order(markers, f"marker file {p}")
+    return markers
 
 
 def write_markers(path: str | Path, markers: Markers, decimals: int = 2) -> None:
