@@ -38,7 +38,9 @@ def one(job: tuple[str, int]) -> dict:
 
     name, seed = job
     hill = load_hill(name, HILLS[name])
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=seed))
+    sim = simulate_skijump(
+        hill, SkiJumpConfig(seed=seed, physics="paper")
+    )  # the paper's world (issue 39: bench_skijump_independent for the full physics)
     times = sim.truth_meta["skijump"]["times"]
     det = detect_jump_table(sim.session)
     out = {"hill": name, "seed": seed, "found": len(det.jumps), "length": sim.truth_meta["jump_length"]}

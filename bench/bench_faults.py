@@ -58,7 +58,9 @@ def _skijump_variants(seed: int) -> tuple:
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill("oberstdorf_hs106")
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=seed))
+    sim = simulate_skijump(
+        hill, SkiJumpConfig(seed=seed, physics="paper")
+    )  # the paper's world (issue 39: bench_skijump_independent for the full physics)
     times = sim.truth_meta["skijump"]["times"]
     rng = np.random.default_rng(seed)
     t_end = times["end"]

@@ -57,7 +57,7 @@ def one(seed: int) -> dict:
     from sportfusion.skijump.smoother_inputs import SmootherConfig
 
     hill = load_hill("oberstdorf_hs106")
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=seed, **SIM))
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=seed, physics="paper", **SIM))  # issue 19's world
     az = sim.session_meta["frame"]["azimuth_deg"]
     det = detect_jump_table(sim.session)
     tt = sim.truth_meta["skijump"]["times"]

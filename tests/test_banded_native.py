@@ -193,6 +193,51 @@ def test_entry_points_refuse_wrong_buffers() -> None:
         C.minv_diag(False, h, np.ones(5, np.int64), 1.0, np.empty(5))
 
 
+@needs_c
+def test_running_median_matches_its_numpy_reference() -> None:
+    """``_banded_c.running_median`` = ``spline_robust._running_median_py``: scipy's running median with the
+    ends by hand on finite values, the padded nanmedian where a value is NaN or infinite; ties, shrinking ends."""
+    from sportfusion.estimators.spline_robust import _running_median_py
+
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 3, 17, 31, 32, 200):
+        for half in (1, 3, 15):
+            v = rng.integers(0, 6, n) + np.where(rng.random(n) < 0.5, 0.0, rng.random(n))  # many ties
+            np.testing.assert_array_equal(_banded.running_median(v, half), _running_median_py(v, half))
+            v[rng.random(n) < 0.1] = np.inf
+            v[rng.random(n) < 0.2] = np.nan
+            v[0] = 1.0  # (every window holds a value: nanmedian warns on an empty one)
+            v[-1] = 2.0
+            if n > 2 * half + 1:
+                v[np.arange(half, n - half, 2 * half + 1)] = 1.5
+            np.testing.assert_array_equal(_banded.running_median(v, half), _running_median_py(v, half))
+    assert np.isnan(_banded.running_median(np.array([np.nan, np.nan, 1.0, np.nan, np.nan, np.nan]), 1)[-1])
+
+
+@needs_c
+@pytest.mark.parametrize("same", [True, False])
+def test_loo_fit_in_c_matches_the_reference(monkeypatch: pytest.MonkeyPatch, same: bool) -> None:
+    """The robust screen's fit and leave-one-out residuals from one factorization per weight vector (C) equal
+    the reference (smoothing_spline and _minv_diag), and its knots are smoothing_spline's to the bit."""
+    from sportfusion.estimators import spline_robust as R
+
+    rng = np.random.default_rng(12)
+    n = 1500
+    t = np.cumsum(rng.uniform(0.5, 1.5, n))
+    y = np.cumsum(rng.normal(0, 2, (n, 3)), axis=0)
+    w = np.tile(rng.uniform(0.2, 0.5, (n, 1)), (1, 3))
+    if not same:
+        w[:, 2] *= 0.5
+    a = R._loo_fit(t, y, w, 0.9)
+    fit = S.smoothing_spline(t, y, w, 0.9)
+    np.testing.assert_array_equal(a[1], fit.spline.g)
+    np.testing.assert_array_equal(a[2], fit.spline.gamma)
+    monkeypatch.setattr(_banded, "_NATIVE", None)
+    b = R._loo_fit(t, y, w, 0.9)
+    for x, r in zip(a, b, strict=True):
+        assert np.max(np.abs(x - r)) <= 1e-9 * np.max(np.abs(r))
+
+
 def test_gap_rows_are_found_by_bisection_as_by_mask() -> None:
     rng = np.random.default_rng(3)
     tk = np.sort(rng.uniform(0, 100, 400))
@@ -222,4 +267,6 @@ def test_std_at_rows_is_numpy_interp() -> None:
     got = _at_rows(values, tk, t, rows, has)
     ref = np.column_stack([np.interp(t[rows], tk, values[:, c]) for c in range(3)])
     assert np.array_equal(got, ref)
+    assert np.array_equal(_at_rows(values, tk, t, slice(rows[0], rows[-1] + 1), has), ref)  # rows as a slice
     assert _at_rows(values, tk, tk, np.arange(tk.size), np.ones(tk.size, bool)) is values  # epochs only: no work
+    assert _at_rows(values, tk, tk, slice(0, tk.size), np.ones(tk.size, bool)) is values

@@ -112,7 +112,8 @@ def test_jump_events_across_a_gnss_outage(jump):
     for start, length in ((times["takeoff"] - 4.0, 14.0), (3.0, 20.0)):
         det = detect_jump_table(faults.gnss_outage(sim.session, start, length))
         (j,) = det.jumps
-        assert abs(j.takeoff - times["takeoff"]) <= 0.03 + 1e-9
+        # the full physics' take-off peak comes 25-45 ms after the edge (tests/test_events_jump.py: TO_TOL)
+        assert abs(j.takeoff - times["takeoff"]) <= 0.05
         assert abs(j.touchdown - times["touchdown"]) <= 0.03 + 1e-9
         assert any("outage" in w and "accelerometer alone" in w for w in det.warnings)
     # a short outage while standing is not searched (nothing says the athlete moved)
@@ -259,7 +260,9 @@ def test_rts_smooth_skips_a_disturbed_magnetometer():
     from sportfusion.skijump.smoother import rts_smooth_table
 
     hill = load_hill("oberstdorf_hs106")
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=100))
+    # the paper's sensors: no other magnetic disturbance than the injected one (the full physics' take-off table
+    # is one, and rts-smooth flags it on the clean session too)
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=100, physics="paper"))
     out = {}
     for name, table in (("clean", sim.session), ("bad", faults.mag_disturbance(sim.session, 6.0, 6.0, 0.5, seed=100))):
         ev, _, _ = detect_jump_events(table)

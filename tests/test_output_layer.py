@@ -388,12 +388,20 @@ time.sleep(60)
 """
 
 
+def _default_signals() -> None:
+    """The child starts with the default handlers: a test suite run in the background (``pytest &`` from a
+    script) starts with SIGINT ignored, and a command keeps a signal its caller ignores (as it should)."""
+    for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(s, signal.SIG_DFL)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
 def test_signals_remove_the_temporaries_and_exit_128_plus_signo(tmp_path, sig):
     p = subprocess.Popen(
         [sys.executable, "-c", HOLDER, str(tmp_path / "out.parquet"), str(tmp_path / "raw")],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        preexec_fn=_default_signals,
     )
     assert p.stdout.readline().strip() == b"ready"
     assert len(leftovers(tmp_path)) == 2
@@ -417,7 +425,12 @@ def test_console_script_interrupted_while_starting_has_no_traceback(tmp_path, si
     if not Path("/proc/self/status").exists():
         pytest.skip("needs /proc to see when the handlers are in place")
     r, w = os.pipe()  # stdin stays open: the command waits for its input after the imports
-    p = subprocess.Popen([str(BIN / "rts-smooth"), "-o", str(tmp_path / "o.parquet")], stdin=r, stderr=subprocess.PIPE)
+    p = subprocess.Popen(
+        [str(BIN / "rts-smooth"), "-o", str(tmp_path / "o.parquet")],
+        stdin=r,
+        stderr=subprocess.PIPE,
+        preexec_fn=_default_signals,
+    )
     os.close(r)
     deadline = time.monotonic() + 60
     while not _handlers_installed(p.pid) and time.monotonic() < deadline:

@@ -26,6 +26,19 @@ def _rms(a: np.ndarray) -> float:
     return float(np.sqrt(np.nanmean(np.asarray(a) ** 2)))
 
 
+def _imu_span(table: pa.Table) -> np.ndarray:
+    """Rows within the IMU's recording (the receiver's first fix may come before the IMU's first sample: the
+    full physics has its own clock for each; rts-smooth estimates nothing outside the IMU data)."""
+    t = schema.floats(table, "t")
+    ti = t[np.isfinite(schema.floats(table, "acc_x"))]
+    return (t >= ti[0]) & (t <= ti[-1])
+
+
+def _first_seconds(table: pa.Table, seconds: float) -> pa.Table:
+    """The rows of the first ``seconds`` [s] (IMU and GNSS rows; a row count would depend on their mix)."""
+    return table.slice(0, int(np.searchsorted(schema.floats(table, "t"), seconds)))
+
+
 @pytest.fixture(scope="module")
 def fixture_run():
     tab, meta = sfio.read_table(FIX + "session.parquet")
@@ -81,7 +94,7 @@ def test_std_columns_are_consistent_with_the_errors(fixture_run):
     _, i_est, err = errors(out, truth, meta["frame"]["azimuth_deg"])
     for a in "xyz":
         s = schema.floats(out, f"std_{a}")[i_est]
-        assert np.all(s > 0)
+        assert np.all(s[_imu_span(out)[i_est]] > 0)
         z = _rms(err[a] / s)
         assert 0.2 < z < 3.0, (a, z)
 
@@ -101,12 +114,15 @@ def test_constraint_residual_columns_and_windows(fixture_run):
     t = schema.floats(out, "t")
     to, td = tmeta["skijump"]["times"]["takeoff"], tmeta["skijump"]["times"]["touchdown"]
     cv, ch, cl, cq = (schema.floats(out, c) for c in ("c_v_ir", "c_h_ir", "c_v_la", "c_q"))
-    assert np.isfinite(cv[t <= to]).all() and np.isnan(cv[t > to + 1e-9]).all()
-    assert np.isfinite(ch[t <= to]).all() and np.isnan(ch[t > to + 1e-9]).all()
+    # the in-run window opens at the step after the rest's first GNSS epoch within the IMU data (0.1 s: the fix at
+    # 0.0 s precedes the IMU's first sample in the full physics, its clock has another phase)
+    imu = _imu_span(out) & (t > 0.11)
+    assert np.isfinite(cv[imu & (t <= to)]).all() and np.isnan(cv[t > to + 1e-9]).all()
+    assert np.isfinite(ch[imu & (t <= to)]).all() and np.isnan(ch[t > to + 1e-9]).all()
     assert np.isnan(cl[t <= td]).all() and np.isfinite(cl[t > td + 0.01]).all()
     # soft constraints of 0.1 m: residuals of that order; the unit-norm constraint much tighter
     assert _rms(cv) < 0.15 and _rms(ch) < 0.15 and _rms(cl) < 0.15
-    assert np.abs(cq).max() < 5e-3
+    assert np.nanmax(np.abs(cq)) < 5e-3 and np.isfinite(cq[_imu_span(out)]).all()
 
 
 @pytest.mark.slow
@@ -136,7 +152,9 @@ def _slice_bytes(n: int = 300) -> bytes:
 def test_cli_short_session_with_filtered_output():
     res = run_cli(["rts-smooth", "--hill", HILL, "--filtered", "--no-hill-constraints", "-q"], stdin=_slice_bytes())
     assert res.returncode == 0, res.stderr.decode()
-    assert res.stderr == b""
+    # -q: nothing but warnings; the fixture's first 3 s hold one of its wild GNSS fixes (full physics)
+    lines = res.stderr.decode().splitlines()
+    assert all(ln.startswith("Warning: rts-smooth: ") and "GNSS fix" in ln for ln in lines), lines
     import io
 
     import pyarrow.parquet as pq
@@ -144,7 +162,7 @@ def test_cli_short_session_with_filtered_output():
     table = pq.read_table(io.BytesIO(res.stdout))
     meta = sfmeta.decode(table.schema.metadata[b"sportfusion"])
     assert meta["provenance"][-1]["tool"] == "rts-smooth"
-    assert "filt_x" in table.column_names and table.column("x").null_count == 0
+    assert "filt_x" in table.column_names and np.isfinite(schema.floats(table, "x")[_imu_span(table)]).all()
 
 
 def test_no_events_is_refused_not_guessed():
@@ -161,7 +179,8 @@ def test_no_events_is_refused_not_guessed():
         rts_smooth_table(tab.slice(0, 300), meta, load_hill(HILL))
     # explicit events (inside the slice) are accepted by the same call
     out, m, _ = rts_smooth_table(tab.slice(0, 300), meta, load_hill(HILL), takeoff=[1.0], touchdown=[2.0])
-    assert m["rts"]["jumps"] == [{"takeoff": 1.0, "touchdown": 2.0}] and out.column("x").null_count == 0
+    assert m["rts"]["jumps"] == [{"takeoff": 1.0, "touchdown": 2.0}]
+    assert np.isfinite(schema.floats(out, "x")[_imu_span(out)]).all()
 
 
 @pytest.mark.parametrize(
@@ -213,7 +232,8 @@ def test_two_jumps_in_one_session():
         assert _rms(err[a]) < 0.3
     # no estimate in the gap between the recordings
     t = schema.floats(out, "t")
-    assert np.isfinite(schema.floats(out, "x")).all()
+    recorded = np.concatenate([_imu_span(sims[0].session), _imu_span(second)])  # each recording's IMU span
+    assert np.isfinite(schema.floats(out, "x")[recorded]).all()
     assert t.size == session.num_rows
     # jump metrics need the events in the table
     from sportfusion.core.events import set_events
@@ -253,7 +273,7 @@ def test_c_engine_equals_the_numpy_reference() -> None:
     from sportfusion.skijump.smoother_passes import smooth_inputs
 
     tab, meta = sfio.read_table(FIX + "session.parquet")
-    tab = tab.slice(0, 900)  # 9 s: rest, release, in-run
+    tab = _first_seconds(tab, 9.0)  # rest, release, in-run
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
     inp = _inputs(tab, meta, hill, cfg, [8.0], [8.5])
@@ -316,9 +336,9 @@ def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
     from sportfusion.skijump.smoother_passes import smooth_inputs
 
     # the numpy reference on the rest at the gate alone (4 s, no jump): it is slow
-    rows, cut, takeoff, touchdown = (900, 4.0, [13.0], [13.5]) if engine == "c" else (400, 2.0, [], [])
+    secs, cut, takeoff, touchdown = (9.0, 4.0, [13.0], [13.5]) if engine == "c" else (4.0, 2.0, [], [])
     tab, meta = sfio.read_table(FIX + "session.parquet")
-    tab = tab.slice(0, rows)
+    tab = _first_seconds(tab, secs)
     t = schema.floats(tab, "t")
     tab = tab.set_column(0, "t", pa.array(np.where(t > cut, t + 5.0, t)))  # logging paused: two segments
     hill = load_hill(HILL)
@@ -345,11 +365,12 @@ def test_smoothing_without_keeping_the_covariances(engine: str) -> None:
 
 
 def _first_900_rows():  # noqa: ANN202
-    """The fixture session's first 900 rows (one jump, take-off at 8 s), one pass: its inputs and initial state."""
+    """The fixture session's first 9 s (rest and in-run, take-off placed at 8 s), one pass: its inputs and initial
+    state."""
     tab, meta = sfio.read_table(FIX + "session.parquet")
     hill = load_hill(HILL)
     cfg = SmootherConfig(passes=1)
-    inp = _inputs(tab.slice(0, 900), meta, hill, cfg, [8.0], [8.5])
+    inp = _inputs(_first_seconds(tab, 9.0), meta, hill, cfg, [8.0], [8.5])
     x0, P0 = initial_state(inp, cfg)
     return tab, meta, hill, cfg, inp, x0, P0
 
@@ -382,14 +403,15 @@ def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyP
         return run(*args, **kw)
 
     monkeypatch.setattr(_ski_native, "ski_ekf_rts", spy)
-    t = schema.floats(tab.slice(0, 900), "t")
-    paused = tab.slice(0, 900).set_column(0, "t", pa.array(t + 5.0 * np.searchsorted([2.25, 4.5, 6.75], t)))
+    t = schema.floats(_first_seconds(tab, 9.0), "t")
+    paused = _first_seconds(tab, 9.0).set_column(0, "t", pa.array(t + 5.0 * np.searchsorted([2.25, 4.5, 6.75], t)))
     inp4 = _inputs(paused, meta, hill, cfg, [8.0 + 15.0], [8.5 + 15.0])  # four segments
     smooth_inputs(inp4, cfg, keep_cov=False)
-    assert seen == [3] * 4
+    # four segments, each run with the predictions' scratch (a segment whose GNSS outliers are skipped runs twice)
+    assert len(seen) >= 4 and set(seen) == {3}
     seen.clear()
     smooth_inputs(inp, cfg, keep_cov=False)  # one segment: fresh scratch would cost more than it saves
-    assert seen == [2]
+    assert set(seen) == {2}
 
 
 @needs_c
@@ -425,7 +447,7 @@ def test_relinearisation_passes_recover_a_bad_start():
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump
 
     hill = load_hill(HILL)
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=0))
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=0, physics="paper"))  # the paper's Table 3 bias prior
     tt = sim.truth_meta["skijump"]["times"]
     kw = {"takeoff": [tt["takeoff"]], "touchdown": [tt["touchdown"]]}
     # the magnetometer's heading at the rest (no in-run alignment), one pass
@@ -436,7 +458,7 @@ def test_relinearisation_passes_recover_a_bad_start():
     e5 = errors(many, sim.truth, 312.6)[2]
     assert np.degrees(_rms(e1["yaw"])) > 1.0
     assert np.degrees(_rms(e5["yaw"])) < 0.759  # Table 6
-    assert 2 <= m["rts"]["passes"][0] <= SmootherConfig().passes + 1
+    assert 2 <= m["rts"]["passes"][0] <= SmootherConfig().passes + 2  # + one where GNSS outliers were skipped
 
 
 @pytest.mark.parametrize("engine", ["numpy", pytest.param("c", marks=needs_c)])
@@ -447,7 +469,7 @@ def test_degenerate_covariance_is_a_clear_error_not_nans(engine):
     tab, meta = sfio.read_table(FIX + "session.parquet")
     hill = load_hill(HILL)
     cfg = SmootherConfig(p0_quat=0.0, r_c_q=0.0, passes=1, hill_constraints=False)
-    with pytest.raises(InputError, match=r"step 0 \(t = 0\.000 s\)"):
+    with pytest.raises(InputError, match=r"step 0 \(t = 0\.\d{3} s\)"):  # the IMU's first sample
         rts_smooth_table(tab.slice(0, 200), meta, hill, cfg, engine=engine)
 
 

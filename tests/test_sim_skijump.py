@@ -1,4 +1,5 @@
-"""simulate skijump: the truth obeys the INS kinematics and the hill, sensors follow the paper's error models."""
+"""simulate skijump: the paper mode's truth obeys the INS kinematics and the hill, its sensors the paper's error
+models; the full physics (the default, issue 39) is one consistent motion sensed as hardware does."""
 
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ def hill():
 
 @pytest.fixture(scope="module")
 def sim(hill):
-    return simulate_skijump(hill, SkiJumpConfig(seed=1))
+    return simulate_skijump(hill, SkiJumpConfig(seed=1, physics="paper"))
 
 
 def cols(table, *names):
@@ -69,7 +70,7 @@ def test_truth_imu_reproduces_the_trajectory(sim):
 def test_truth_imu_consistent_on_a_second_hill():
     # an ICR1992 hill without a site (given with --hill-set), another seed and distance
     hill = load_hill("breitenberg_hs78", {"lat": "47.55", "lon": "10.55", "height": "1050", "azimuth_deg": "20"})
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=5))
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=5, physics="paper"))
     x, r, _ = propagate_truth(sim.truth, sim.truth_meta)
     assert np.linalg.norm(x[:, :3] - r, axis=1).max() < 0.05
 
@@ -80,7 +81,7 @@ def test_truth_imu_consistent_on_the_smallest_hill():
     # 0.3 m above the slope (7.4 cm of drift before the bridges were made C5 and the touch-down jerk continuous)
     hill = load_hill("rasnov_hs38", {"lat": "45.59", "lon": "25.46", "height": "700", "azimuth_deg": "300"})
     for seed in (0, 2):
-        sim = simulate_skijump(hill, SkiJumpConfig(seed=seed))
+        sim = simulate_skijump(hill, SkiJumpConfig(seed=seed, physics="paper"))
         x, r, _ = propagate_truth(sim.truth, sim.truth_meta)
         assert np.linalg.norm(x[:, :3] - r, axis=1).max() < 0.05, seed
 
@@ -186,7 +187,7 @@ def test_constant_errors_drawn_from_table3(sim):
 
 
 def test_gnss_options(hill):
-    cfg = SkiJumpConfig(seed=3, outages=[(12.0, 14.0)], lever_arm=(0.0, 0.0, -0.5), noise=False)
+    cfg = SkiJumpConfig(seed=3, outages=[(12.0, 14.0)], lever_arm=(0.0, 0.0, -0.5), noise=False, physics="paper")
     sim = simulate_skijump(hill, cfg)
     s, tr = sim.session, sim.truth
     t = schema.floats(s, "t")
@@ -206,7 +207,7 @@ def test_lever_arm_velocity_is_the_antenna_motion(hill):
     # independent of the simulator's formula: central differences of the antenna position (truth
     # position + rotated lever arm, 100 Hz) against the noise-free GNSS velocity (NED)
     lever = np.array([0.3, -0.2, 0.5])
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=4, lever_arm=tuple(lever), noise=False))
+    sim = simulate_skijump(hill, SkiJumpConfig(seed=4, lever_arm=tuple(lever), noise=False, physics="paper"))
     s, tr = sim.session, sim.truth
     frame = Frame.from_meta(sim.session_meta["frame"])
     t = schema.floats(tr, "t")
@@ -227,7 +228,8 @@ def test_lever_arm_velocity_is_the_antenna_motion(hill):
 
 
 def test_height_error_is_slow(hill):
-    sim = simulate_skijump(hill, SkiJumpConfig(seed=2, height_error=(4.0, 30.0), sigma_pos=(0.0, 0.0, 0.0)))
+    cfg = SkiJumpConfig(seed=2, height_error=(4.0, 30.0), sigma_pos=(0.0, 0.0, 0.0), physics="paper")
+    sim = simulate_skijump(hill, cfg)
     s, tr = sim.session, sim.truth
     g = ~np.isnan(schema.floats(s, "lat"))
     frame = Frame.from_meta(sim.session_meta["frame"])
@@ -266,11 +268,16 @@ def test_cli_bad_distance_and_hill(tmp_path):
 
 
 # -- a regenerated fixture is compared as numbers, never byte for byte -------------------------
-# A fresh install picks up newer numpy/scipy/pyproj releases whose last bits differ (2.6e-5 m in
-# true_x was seen).  Tolerance: 1e-6 of each column's span (0.2 mm on a 200 m track, 5e-5 m/s^2 on the
-# accelerometer) plus 1e-9; text files (CSV, NMEA) number for number, a printed number within 5 units of
-# its last printed digit.  Anything structural (columns, row counts, sentence types, metadata keys) exact.
+# A fresh install picks up newer numpy/scipy/pyproj releases whose last bits differ.  The truth is integrated
+# on a fixed step in plain floats (sportfusion.sim.ode: an adaptive solve_ivp's steps moved the landing's specific
+# force by 2.5e-4 m/s^2 between scipy 1.16 and 1.17), so what is left is the last bits of numpy's transcendental
+# functions.  Tolerance: 1e-6 of each column's span (0.2 mm on a 200 m track, 1e-4 m/s^2 on the accelerometer)
+# plus 1e-9; the quantised sensor columns (16-bit accelerometer and gyro, 0.15 uT magnetometer) may in
+# addition flip one least significant bit where a value sits on a rounding edge, on at most 0.2 % of the
+# samples; text files (CSV, NMEA) number for number, a printed number within 5 units of its last printed digit.
+# Anything structural (columns, row counts, sentence types, metadata keys) exact.
 SPAN_RTOL, ATOL = 1e-6, 1e-9
+LSB = {"acc": 32 * 9.80665 / 65536, "gyr": 4000 * np.pi / 180 / 65536, "mag": 0.15}
 _NUM = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
@@ -302,7 +309,13 @@ def assert_tables_close(path_a: Path, path_b: Path, kind: str) -> None:
             assert np.array_equal(np.isnan(x), np.isnan(y)), name
             ok = ~np.isnan(x)
             span = float(np.ptp(x[ok])) if ok.any() else 0.0
-            np.testing.assert_allclose(y[ok], x[ok], rtol=0, atol=ATOL + SPAN_RTOL * span, err_msg=name)
+            tol = ATOL + SPAN_RTOL * span
+            lsb = LSB.get(name[:3]) if name[3:] in ("_x", "_y", "_z") else None
+            if lsb is not None:  # one LSB flipped on a rounding edge, rarely
+                d = np.abs(y[ok] - x[ok])
+                assert np.all(d <= lsb + tol) and np.mean(d > tol) <= 0.002, name
+                continue
+            np.testing.assert_allclose(y[ok], x[ok], rtol=0, atol=tol, err_msg=name)
         else:
             assert ca.equals(cb), name
     for m in (ma, mb):
@@ -374,8 +387,9 @@ def test_raw_files_hold_the_session(hill):
     with zipfile.ZipFile(FIXTURES / "raw" / "phyphox.zip") as z:
         assert {"Accelerometer.csv", "Gyroscope.csv", "Magnetometer.csv", "meta/time.csv"} <= set(z.namelist())
         acc = np.loadtxt(io.StringIO(z.read("Accelerometer.csv").decode()), delimiter=",", skiprows=1)
-    assert np.allclose(acc[:, 0], schema.floats(session, "t"), atol=1e-9)
-    assert np.allclose(acc[:, 1:4], cols(session, "acc_x", "acc_y", "acc_z"), rtol=1e-8, atol=1e-8)
+    imu = np.isfinite(schema.floats(session, "acc_x"))  # the IMU's rows (the receiver has its own instants)
+    assert np.allclose(acc[:, 0], schema.floats(session, "t")[imu], atol=1e-9)
+    assert np.allclose(acc[:, 1:4], cols(session, "acc_x", "acc_y", "acc_z")[imu], rtol=1e-8, atol=1e-8)
     lines = (FIXTURES / "raw" / "gnss.nmea").read_text().split()
     gga = [ln for ln in lines if ln[3:6] == "GGA"]
     assert len(gga) == int((~np.isnan(schema.floats(session, "lat"))).sum())

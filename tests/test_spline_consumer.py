@@ -93,8 +93,9 @@ def test_hdop_weights_the_fixes():
 
 
 def test_step_speed_is_the_running_median_of_the_step_speeds():
-    """The running median (scipy inside, shrinking windows at the ends) equals its definition: the median of
-    the finite step speeds within ``window // 2`` epochs either side; a missing fix is skipped."""
+    """The running median (C where built, else scipy inside and the shrinking windows at the ends) equals its
+    definition: the median of the finite step speeds within ``window // 2`` epochs either side; a missing fix
+    is skipped."""
     from numpy.lib.stride_tricks import sliding_window_view
 
     rng = np.random.default_rng(5)

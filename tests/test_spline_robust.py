@@ -108,3 +108,55 @@ def test_cli_uses_the_receiver_speed_and_writes_weights():
     assert np.nanmax(floats(outs["--no-robust"], "speed")) > 1.3 * vmax
     assert "gnss_weight" in robust.column_names and "gnss_weight" not in outs["--no-robust"].column_names
     assert robust.schema.field("gnss_weight").metadata[b"unit"] == b"1"
+
+
+def test_the_shortcuts_give_the_long_ways_numbers(monkeypatch):
+    """What spline-smooth skips on a clean track (issue 40) changes no number: the weights without the medians,
+    the screens without the running-median speed, and the final fit taken from the screen's last pass."""
+    import sportfusion.skirace.track as track_mod
+    from sportfusion.estimators import spline_robust as R
+
+    rng = np.random.default_rng(9)
+    n = 2000
+    t = np.cumsum(rng.uniform(0.05, 0.15, n))
+    clean = np.column_stack((np.sin(t / 3), np.cos(t / 5), 0.01 * t)) + 0.02 * rng.standard_normal((n, 3))
+    sig = np.full((n, 3), 0.02)
+    # (1) residuals all far below FLAT * floor: weights exactly 1 without the medians; else the full path
+    for e in (0.03 * rng.standard_normal((n, 3)), np.r_[0.03 * rng.standard_normal((n - 1, 3)), [[9.0, 0, 0]]]):
+        for floor in (1.0, 0.01):
+            np.testing.assert_array_equal(R._weights(e, sig, floor, R.TUKEY_C), tukey(R._z(e, sig, floor)))
+    # (2) without a receiver speed, the jumps (and the stalls) are those of the running-median speed
+    stalled = clean.copy()
+    stalled[700:712] = stalled[700]  # a stall, then a catch-up step
+    stalled[1500] += [5.0, 0.0, 0.0]  # a spike
+    stepped = clean.copy()
+    stepped[1200:] += [0.0, 0.1, 0.0]  # a step longer than a standstill allows, but no jump at the speed
+    fast = clean * 20.0  # every step longer than a standstill allows: the speed at every epoch at once
+    fast[300] += [30.0, 0.0, 0.0]
+    for y in (clean, stepped, stalled, fast):
+        dist, dt = R._steps(t, y)
+        lazy, full = R._jumps(dist, dt, None, sig), R._jumps(dist, dt, R.step_speed(t, y), sig)
+        np.testing.assert_array_equal(lazy[2], full[2])
+        np.testing.assert_array_equal(R._stalls(dist, dt, *lazy), R._stalls(dist, dt, *full))
+        assert (lazy[0] is None) == (y is clean or y is stepped)  # no jump: no speed at every epoch
+    dist, dt = R._steps(t, stepped)
+    assert (dist > dt + 4 * np.sqrt(2) * 0.02).sum() == 1  # (the speed was taken at that step's ends)
+    assert R._jumps(*R._steps(t, stalled), None, sig)[2].size
+    np.testing.assert_array_equal(
+        R._running_median_at(R._step_speeds(dist, dt), np.array([0, 5, 1000, n - 1]), 15),
+        R.step_speed(t, stepped)[[0, 5, 1000, n - 1]],
+    )
+    # (3) the screen's last fit is the fit with the final weights, to the bit; smooth_track reuses it
+    w = 1.0 / sig
+    rw, knots = R.robust_fit(t, clean, w, 0.9, sig)
+    assert knots is not None and (rw == 1.0).all()
+    fit = smoothing_spline(t, clean, w * rw[:, None], 0.9)
+    np.testing.assert_array_equal(knots[0], fit.spline.g)
+    np.testing.assert_array_equal(knots[1], fit.spline.gamma)
+    assert R.robust_fit(t, stalled, w, 0.9, sig)[1] is None  # weights changed after the last fit: no reuse
+    fix = np.full(n, 4.0)
+    fast = smooth_track(t, clean, fix, sig, lam=0.9)
+    monkeypatch.setattr(track_mod, "robust_fit", lambda *a, **k: (R.robust_fit(*a, **k)[0], None))
+    slow = smooth_track(t, clean, fix, sig, lam=0.9)
+    for name, col in slow.columns.items():
+        np.testing.assert_array_equal(np.asarray(fast.columns[name]), np.asarray(col), err_msg=name)

@@ -48,7 +48,8 @@ def _times(text: str | None, option: str) -> list[float] | None:
     "config",
     type=click.Path(dir_okay=False),
     default=None,
-    help="TOML file overriding the smoother settings (1-sigma P0, Q, R of Tables 3-5 in m, m/s, rad/s, m/s^2, uT; "
+    help="TOML file overriding the smoother settings (1-sigma P0, Q, R of Tables 3-5 -- GNSS position 5/5/8 m and "
+    "hill constraints 0.05 m by default -- in m, m/s, rad/s, m/s^2, uT; "
     "windows in s); keys as in sportfusion.skijump.smoother_inputs.SmootherConfig.",
 )
 @click.option(

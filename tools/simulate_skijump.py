@@ -6,7 +6,7 @@ import click
 
 from sportfusion.core import meta as sfmeta
 from sportfusion.core.describe import ms_to_kmh
-from sportfusion.skijump.sim import DEFAULT_START
+from sportfusion.skijump.sim import DEFAULT_START, VARIANT_NAMES
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import SEED, hill_options, load_hill_option, parse_floats
 
@@ -21,7 +21,9 @@ DEFAULT_HILL = "oberstdorf_hs106"
   simulate skijump --seed 1 --truth truth.parquet > session.parquet
   simulate skijump --hill oberstdorf_hs106 --distance 92 --seed 4 --raw raw/ -o session.parquet
   simulate skijump --hill willingen_hs145 --origin 51.2905,8.6048,640 --azimuth 200 --seed 2 > s.parquet
-  simulate skijump --seed 3 --height-error 4,30 --outage 14,16 --truth t.parquet | detect-events --kind jump > e.parquet""",
+  simulate skijump --seed 3 --height-error 4,30 --outage 14,16 --truth t.parquet | detect-events --kind jump > e.parquet
+  simulate skijump --seed 5 --variant multipath --variant lever --truth t.parquet > s.parquet
+  simulate skijump --physics paper --seed 1 > paper.parquet""",
 )
 @hill_options
 @click.option(
@@ -99,6 +101,22 @@ DEFAULT_HILL = "oberstdorf_hs106"
     help="Wind in flight: headwind along the hill axis (negative: tailwind) and the amplitude of its "
     "sinusoidal gusts [m/s, m/s]; the lift is planned with it, so the jump keeps its length.",
 )
+@click.option(
+    "--physics",
+    type=click.Choice(["full", "paper"]),
+    default="full",
+    show_default=True,
+    help="full: the hardware as it is (1 kHz truth sensed through scale errors, misalignment, temperature drift, "
+    "a 41 Hz anti-aliasing filter, quantisation, chatter; helmet antenna, multipath, wild fixes; steel in the "
+    "take-off table), none of it in the smoother's model; paper: eqs 35-39 with the Table 3-5 noise.",
+)
+@click.option(
+    "--variant",
+    "variants",
+    multiple=True,
+    type=click.Choice(sorted(VARIANT_NAMES)),
+    help="With --physics full: one effect made strong (model-mismatch benchmark variants). Repeatable.",
+)
 @click.option("--no-noise", is_flag=True, help="Sensors without biases or noise (the truth values), for tests.")
 @click.option(
     "--video",
@@ -143,6 +161,8 @@ def main(
     lever_arm: str,
     gnss_latency: float,
     wind: str | None,
+    physics: str,
+    variants: tuple[str, ...],
     no_noise: bool,
     video_path: str | None,
     video_fps: float,
@@ -155,11 +175,15 @@ def main(
     """Simulate one ski jump on a hill (default: the paper's Oberstdorf HS106):
     rest at a start gate, in-run along the profile with friction and air drag,
     take-off impulse at the edge, flight with lift and drag, touch-down with the
-    landing impact, out-run, braking to a stop. The truth obeys the INS
-    kinematics of skijump eqs 44-46 exactly. Sensors (eqs 35-39): an
-    arm-mounted phone's gyroscope, accelerometer and magnetometer at 100 Hz
-    with Table 3 biases and Table 4-5 noise, GNSS lat/lon/h and NED velocity at
-    10 Hz (3/3/5 m, 0.1/0.1/0.3 m/s). The session goes to stdout; --truth gets
+    landing impact, out-run, braking to a stop. Default (--physics full): the
+    motion on a 1 kHz grid with ski chatter and the body's ringing at the
+    landing, sensed by an arm-mounted phone as hardware does (scale errors,
+    misalignment, temperature-driven biases, a 41 Hz anti-aliasing filter,
+    16-bit quantisation; a magnetometer with soft iron and the take-off table's
+    steel; IMU at 100 Hz on its own clock) and a helmet GNSS antenna fixed at
+    10 Hz, 0.08 s late, with slow drift, multipath and wild fixes. --physics
+    paper: the paper's error models (eqs 35-39, Tables 3-5) on a truth that
+    obeys its INS kinematics (eqs 44-46). The session goes to stdout; --truth gets
     the true_ columns, the take-off/touch-down events and the jump length
     (curve length of the landing profile from F to the skis' touch-down point)."""
     from sportfusion.skijump.sim.simulate import SkiJumpConfig, simulate_skijump, write_raw
@@ -182,7 +206,11 @@ def main(
         gnss_latency=gnss_latency,
         wind=tuple(parse_floats(wind, 2, "--wind")) if wind else None,  # type: ignore[arg-type]
         noise=not no_noise,
+        physics=physics,
+        variants=tuple(variants),
     )
+    if variants and physics != "full":
+        raise click.BadParameter("variants modify the full physics; drop --physics paper", param_hint="--variant")
     sim = simulate_skijump(the_hill, cfg)
     sj = sim.truth_meta["skijump"]
     tool.info(

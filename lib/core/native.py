@@ -23,7 +23,7 @@ from types import ModuleType
 SLOWER = {
     "sportfusion.skijump._ski_c": "rts-smooth 15-80x slower: about 1.5 ms per IMU step instead of 20 us",
     "sportfusion.estimators._banded_c": (
-        "spline-smooth 2-10x slower, 13 s instead of 1.5 s at 1e6 epochs; dmc-attitude and pf-holds 1.1-1.5x"
+        "spline-smooth 1.5-10x slower, 10 s instead of 1 s at 1e6 epochs; dmc-attitude and pf-holds 1.1-1.5x"
     ),
     "sportfusion.climbing._climbing_c": "pf-holds about 1.5x slower",
 }

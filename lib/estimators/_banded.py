@@ -3,9 +3,9 @@
 The C extension (built by ``setup.py`` as an optional extension) imports in about a millisecond.  The
 functions here allocate the outputs and call it; each returns None where it is not built (no C compiler
 at install time, or ``SPORTFUSION_NATIVE=0`` in the environment), and the caller in
-:mod:`sportfusion.estimators.spline` then runs its numpy reference (``_ldl_inverse_bands_py``,
-``_minv_diag_py``, ``NaturalCubicSpline.evaluate``'s numpy formulas, scipy's banded solve): the same
-results to rounding, slower (docs/speed.md).
+:mod:`sportfusion.estimators.spline` (or :mod:`~sportfusion.estimators.spline_robust`) then runs its numpy
+reference (``_ldl_inverse_bands_py``, ``_minv_diag_py``, ``NaturalCubicSpline.evaluate``'s numpy formulas,
+scipy's banded solve, ``_running_median_py``): the same results to rounding, slower (docs/speed.md).
 """
 
 from __future__ import annotations
@@ -122,4 +122,16 @@ def arc_length(
     g, c, tq = _f64(g), _f64(c), _f64(tq)
     out = np.empty(tq.size)
     mod.arc_length(_f64(t), g, c, tq, _f64(xg), _f64(wg), out)
+    return out
+
+
+def running_median(v: np.ndarray, half: int) -> np.ndarray | None:
+    """The median of the non-NaN ``v[j]`` with ``|j - i| <= half`` for each ``i`` (the window shrinks at the ends;
+    NaN where it holds no value); None without the C extension."""
+    mod = native()
+    if mod is None:
+        return None
+    v = _f64(v)
+    out = np.empty(v.size)
+    mod.running_median(v, int(half), out)
     return out

@@ -7,7 +7,7 @@
  * tests/test_fast_paths.py, tests/test_blocktri.py).  The spline's kernels: the Reinsch solve (banded
  * LDL^T, several right-hand sides; spline._reinsch), the central bands of B^-1 (spline._ldl_inverse_bands_py),
  * diag((W + K)^-1) (spline._minv_diag_py), the spline's evaluation (NaturalCubicSpline.evaluate) and arc
- * length (NaturalCubicSpline.arc_length).
+ * length (NaturalCubicSpline.arc_length); the robust screen's running median (spline_robust._running_median_py).
  *
  * Arrays travel through the buffer protocol (no numpy headers needed to build): the Python
  * wrappers in _banded.py pass C-contiguous float64 (or complex128) arrays and preallocated outputs.
@@ -553,6 +553,95 @@ done:
     return res;
 }
 
+/* ---- the running median of the robust screen (sportfusion.estimators.spline_robust) ----------- */
+
+/* running_median: out[i] = the median of the values v[j] that are not NaN, |j - i| <= half, 0 <= j < n (NaN
+ * where there is none; an even count takes the mean of the two middle values); as
+ * spline_robust._running_median_py (numpy's nanmedian of the NaN-padded sliding windows).  The window's values
+ * are kept sorted in s (2 half + 1 entries): each step finds the leaving value by bisection and moves the
+ * entering one from its slot to its rank (as many moves as the ranks differ), O(n half) at most. */
+static Py_ssize_t rm_find(const double *s, Py_ssize_t cnt, double x) { /* first index with s[k] >= x */
+    Py_ssize_t lo = 0, hi = cnt;
+    while (lo < hi) {
+        Py_ssize_t mid = (lo + hi) / 2;
+        if (s[mid] < x)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+static void running_median(const double *v, Py_ssize_t n, Py_ssize_t half, double *s, double *out) {
+    Py_ssize_t cnt = 0;
+    for (Py_ssize_t i = -half; i < n; i++) {
+        Py_ssize_t in = i + half, gone = i - half - 1;
+        int drop = gone >= 0 && !isnan(v[gone]), add = in < n && !isnan(v[in]);
+        if (drop && add) { /* the new value takes the old one's slot, then moves to its rank */
+            Py_ssize_t k = rm_find(s, cnt, v[gone]);
+            double x = v[in];
+            while (k + 1 < cnt && s[k + 1] < x) {
+                s[k] = s[k + 1];
+                k++;
+            }
+            while (k > 0 && s[k - 1] > x) {
+                s[k] = s[k - 1];
+                k--;
+            }
+            s[k] = x;
+        } else if (drop) { /* the value leaving the window (an equal one: the same value) */
+            Py_ssize_t k = rm_find(s, cnt, v[gone]);
+            memmove(s + k, s + k + 1, sizeof(double) * (size_t)(cnt - k - 1));
+            cnt--;
+        } else if (add) {
+            Py_ssize_t k = rm_find(s, cnt, v[in]);
+            memmove(s + k + 1, s + k, sizeof(double) * (size_t)(cnt - k));
+            s[k] = v[in];
+            cnt++;
+        }
+        if (i >= 0) out[i] = cnt == 0 ? NAN : (cnt & 1) ? s[cnt / 2] : (s[cnt / 2 - 1] + s[cnt / 2]) / 2.0;
+    }
+}
+
+static const char doc_running_median[] =
+    "running_median(v, half, out)\n\n"
+    "out[i] (float64 (n,), written) = the median of the non-NaN v[j] (float64 (n,)) with |j - i| <= half\n"
+    "(the window shrinks at the ends; NaN where it holds no value), as numpy's nanmedian of the NaN-padded\n"
+    "sliding windows.";
+
+static PyObject *py_running_median(PyObject *self, PyObject *args) {
+    PyObject *ov, *oo;
+    Py_ssize_t half;
+    if (!PyArg_ParseTuple(args, "OnO", &ov, &half, &oo)) return NULL;
+    if (half < 0) {
+        PyErr_SetString(PyExc_ValueError, "running_median: half must be >= 0");
+        return NULL;
+    }
+    Buf b[2];
+    memset(b, 0, sizeof b);
+    PyObject *res = NULL;
+    if (get_view(ov, &b[0], 0) < 0) goto done;
+    Py_ssize_t n = b[0].view.len / (Py_ssize_t)sizeof(double);
+    if (b[0].view.itemsize != (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "running_median: v must be float64");
+        goto done;
+    }
+    if (get_buf(oo, &b[1], sizeof(double), n, 1, "running_median out") < 0) goto done;
+    double *s = (double *)malloc(sizeof(double) * (size_t)(2 * half + 2));
+    if (!s) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS;
+    running_median(b[0].view.buf, n, half, s, b[1].view.buf);
+    Py_END_ALLOW_THREADS;
+    free(s);
+    res = Py_NewRef(Py_None);
+done:
+    release(b, 2);
+    return res;
+}
+
 /* ---- block-tridiagonal SPD systems (sportfusion.estimators.blocktri) ------------------------- */
 
 /* bt_factor / bt_solve / bt_diag_inverse: blocktri.factor, solve and diagonal_of_inverse by block Cholesky.
@@ -807,6 +896,7 @@ static PyMethodDef methods[] = {
     {"reinsch", py_reinsch, METH_VARARGS, doc_reinsch},
     {"evaluate", py_evaluate, METH_VARARGS, doc_evaluate},
     {"arc_length", py_arc_length, METH_VARARGS, doc_arc_length},
+    {"running_median", py_running_median, METH_VARARGS, doc_running_median},
     {NULL, NULL, 0, NULL},
 };
 

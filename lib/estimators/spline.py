@@ -438,6 +438,7 @@ def smoothing_spline(
     *,
     segments: list[tuple[float, float, float]] | None = None,
     sigma: np.ndarray | None = None,
+    knots: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SplineFit:
     """Fit the weighted smoothing cubic spline of eq 5, column by column.
 
@@ -460,31 +461,26 @@ def smoothing_spline(
     sigma : array (n,) or (n, d), optional
         Input 1-sigma [same unit as y]; when given, :attr:`SplineFit.std`
         holds the propagated 1-sigma at the knots (not with ``segments``).
+    knots : (g, gamma), each (n, d), optional
+        The knot values and second derivatives of this very fit (same ``t``, ``y``, ``w`` and ``lam``, no
+        ``segments``) where the caller has already solved it (the robust screen's last pass,
+        :func:`sportfusion.estimators.spline_robust.robust_fit`): taken as they are, only the 1-sigma is
+        computed.
 
     Returns
     -------
     SplineFit
     """
-    t = np.asarray(t, dtype=float)
-    y2 = np.asarray(y, dtype=float)
-    y2 = y2.reshape(-1, 1) if y2.ndim == 1 else y2
+    t, y2, h, W = _validated(t, y, w)
     n, d = y2.shape
-    if t.shape != (n,):
-        raise InputError(f"{t.size} times for {n} observations")
-    if n < 2:
-        raise InputError(f"a smoothing spline needs at least 2 epochs with a position, got {n}")
-    h = np.diff(t)
-    if not np.all(h > 0) or not np.all(np.isfinite(y2)):
-        problem = time_step_problem(t) or "a position that is not finite"
-        raise InputError(f"epoch times must be strictly increasing and positions finite: {problem}")
-    W = np.ones((n, d)) if w is None else np.broadcast_to(np.asarray(w, float).reshape(n, -1), (n, d))
-    if not np.all(W > 0) or not np.all(np.isfinite(W)):
-        raise InputError("spline weights must be positive and finite")
     S = None if sigma is None else np.broadcast_to(np.asarray(sigma, float).reshape(n, -1), (n, d))
     g = np.empty((n, d))
     gam = np.empty((n, d))
     lams = np.empty(d)
-    if lam is not None and not segments and np.all(W == W[:, :1]):
+    if knots is not None and lam is not None and not segments:
+        g, gam = knots
+        lams[:] = float(lam)
+    elif lam is not None and not segments and np.all(W == W[:, :1]):
         # one weight vector for all columns: one factorisation, d right-hand sides
         g, gam = _reinsch(h, y2, W[:, 0], penalty_from_lambda(float(lam)))
         lams[:] = float(lam)
@@ -512,8 +508,33 @@ def smoothing_spline(
                 None,
             )
             cols.append(cols[same] if same is not None else _propagated_std(h, W[:, c], alphas[c], S[:, c]))
-        std = np.column_stack(cols)
+        std = np.empty((n, d), order="F")  # (each column contiguous, as the output table takes it)
+        for c, col in enumerate(cols):
+            std[:, c] = col
     return SplineFit(NaturalCubicSpline(t, g, gam), lams, alphas, std)
+
+
+def _validated(
+    t: np.ndarray, y: np.ndarray, w: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, y, h, W)`` of :func:`smoothing_spline`'s arguments as float arrays (``y`` and ``W`` (n, d)), or
+    InputError: times not strictly increasing, positions not finite, weights not positive and finite."""
+    t = np.asarray(t, dtype=float)
+    y2 = np.asarray(y, dtype=float)
+    y2 = y2.reshape(-1, 1) if y2.ndim == 1 else y2
+    n, d = y2.shape
+    if t.shape != (n,):
+        raise InputError(f"{t.size} times for {n} observations")
+    if n < 2:
+        raise InputError(f"a smoothing spline needs at least 2 epochs with a position, got {n}")
+    h = np.diff(t)
+    if not np.all(h > 0) or not np.all(np.isfinite(y2)):
+        problem = time_step_problem(t) or "a position that is not finite"
+        raise InputError(f"epoch times must be strictly increasing and positions finite: {problem}")
+    W = np.ones((n, d)) if w is None else np.broadcast_to(np.asarray(w, float).reshape(n, -1), (n, d))
+    if not np.all(W > 0) or not np.all(np.isfinite(W)):
+        raise InputError("spline weights must be positive and finite")
+    return t, y2, h, W
 
 
 def _propagated_std(h: np.ndarray, w: np.ndarray, alpha: float, sigma: np.ndarray) -> np.ndarray:
@@ -534,8 +555,17 @@ def _propagated_std(h: np.ndarray, w: np.ndarray, alpha: float, sigma: np.ndarra
         return np.sqrt(np.einsum("ij,j,ij->i", A, sigma**2, A))
     p = w**2 * sigma**2
     step = 1e-20 / max(float(np.max(p / w)), 1e-300)
-    m = _minv_diag(h, w - 1j * step * p, alpha)
-    return np.sqrt(np.maximum(m.imag / step, 0.0))
+    # w - i step p, and then its inverse, in one complex array (16 MB at 1e6 knots: fresh memory costs as much
+    # as the arithmetic); the same numbers as _minv_diag(h, w - 1j * step * p, alpha)
+    wc = np.empty(n, complex)
+    wc.real = w
+    np.multiply(p, -step, out=wc.imag)
+    if _banded.native() is None:
+        m = _minv_diag_py(h, wc, alpha)
+    else:
+        m = _banded.minv_diag(h, np.divide(1.0, wc, out=wc), alpha)
+    var = m.imag / step
+    return np.sqrt(np.maximum(var, 0.0, out=var), out=var)
 
 
 def gcv_lambda(t: np.ndarray, y: np.ndarray, w: np.ndarray | None = None) -> float:
@@ -638,10 +668,13 @@ def epoch_weights(w_amb: np.ndarray, sigma_pos: np.ndarray | None) -> np.ndarray
     w_amb = np.asarray(w_amb, float)
     if sigma_pos is None:
         return w_amb
-    s = np.array(sigma_pos, dtype=float)
+    s = np.asarray(sigma_pos, dtype=float)
     ok = np.isfinite(s) & (s > 0)
     if not ok.any():
         return w_amb
+    if ok.all():  # nothing to fill
+        return (w_amb[:, None] / s) if s.ndim == 2 else w_amb / s
+    s = s.copy()
     s2 = s.reshape(s.shape[0], -1)
     ok2 = ok.reshape(s2.shape)
     for c in range(s2.shape[1]):

@@ -131,7 +131,8 @@ def saturate_imu(
             v = schema.floats(table, name).copy()
             for tb in burst_times:
                 tau = t - tb
-                on = (tau >= 0) & (tau < 4 * burst_duration)
+                # the sensor's own samples only (a session also has rows where only the GNSS sampled)
+                on = (tau >= 0) & (tau < 4 * burst_duration) & np.isfinite(v)
                 phase = rng.uniform(0, 2 * np.pi)
                 a = amp * rng.uniform(0.5, 1.0) * rng.choice((-1.0, 1.0))
                 env = np.exp(-tau[on] / burst_duration)

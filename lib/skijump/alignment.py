@@ -158,7 +158,8 @@ def gnss_latency(
     span: tuple[float, float],
     max_latency: float = 0.3,
     step: float = 0.005,
-) -> float | None:
+    with_std: bool = False,
+) -> float | None | tuple[float | None, float]:
     """The GNSS time-stamp latency [s] (the fix stamped t describes t - latency) from a smoothed pass.
 
     The accelerometer, rotated into NED by the smoothed attitude ``x[:, 6:10]`` (``q_BO``) and corrected by
@@ -168,6 +169,9 @@ def gnss_latency(
     and a linear drift per axis: the integration constant and a residual bias) is searched on a ``step``
     grid in ``[-max_latency, max_latency]`` and refined by a parabola.  Returns None with fewer than 20
     GNSS velocities in the span or a minimum on the grid's edge (not a delay the data show).
+
+    ``with_std``: also its standard error [s] from the parabola's curvature ``c''`` and the misfit per
+    degree of freedom ``s^2`` (``sqrt(2 s^2 / c'')``; inf where the parabola does not bend up): ``(tau, std)``.
     """
     from sportfusion.core.rotations import dcm_from_quat
 
@@ -175,12 +179,19 @@ def gnss_latency(
     k = np.flatnonzero(sel)
     gk = k[np.isfinite(vel[k, 0])]
     if gk.size < 20 or k.size < 10:
-        return None
+        return (None, float("inf")) if with_std else None
     ts = t[k]
     m = dcm_from_quat(x[k, 6:10])  # NED -> body
     a = np.einsum("nji,nj->ni", m, u[k, 3:6] - x[k, 13:16]) + np.array([0.0, 0.0, g0])
     v_imu = np.vstack([np.zeros((1, 3)), np.cumsum(0.5 * (a[1:] + a[:-1]) * np.diff(ts)[:, None], axis=0)])
     tg, vg = t[gk], vel[gk]
+    # only fixes whose every trial delay falls inside the IMU's span: np.interp would hold the integrated
+    # velocity's first or last value beyond it, and the in-run's acceleration there pulled the delay ~4 ms
+    # short (issue 39: -4 ms on the paper's sensors without latency, 0.0457 s for 0.05 s noise-free)
+    inside = (tg - max_latency >= ts[0]) & (tg + max_latency <= ts[-1])
+    tg, vg = tg[inside], vg[inside]
+    if tg.size < 20:
+        return (None, float("inf")) if with_std else None
     grid = np.arange(-max_latency, max_latency + step / 2, step)
     mod = _ski_native.native()
     if mod is None:
@@ -192,10 +203,16 @@ def gnss_latency(
         mod.latency_misfit(f64(ts, dtype=float), f64(v_imu), f64(tg, dtype=float), vg, grid, np.empty_like(vg), c)
     i = int(np.argmin(c))
     if i == 0 or i == grid.size - 1:
-        return None
+        return (None, float("inf")) if with_std else None
     den = c[i - 1] - 2 * c[i] + c[i + 1]
     off = 0.5 * (c[i - 1] - c[i + 1]) / den if den > 0 else 0.0
-    return float(grid[i] + off * step)
+    tau = float(grid[i] + off * step)
+    if not with_std:
+        return tau
+    dof = max(3 * tg.size - 6, 1)
+    curv = den / step**2
+    std = float(np.sqrt(2.0 * max(float(c[i]), 0.0) / dof / curv)) if curv > 0 else float("inf")
+    return tau, std
 
 
 def _latency_misfit_numpy(

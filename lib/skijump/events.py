@@ -69,7 +69,7 @@ from sportfusion.core.errors import InputError
 from sportfusion.core.events import set_events, true_runs
 from sportfusion.core.saturation import clipped_rows
 from sportfusion.core.stats import median
-from sportfusion.skijump.touchdown import impact_onset
+from sportfusion.skijump.touchdown import first_impact_peak, impact_crossing, impact_onset
 
 JUMP_EVENTS = ("takeoff", "touchdown")
 #: How the touch-down is found: the landing impact's onset (default), or eq A4 (peak minus offset).
@@ -104,6 +104,11 @@ class JumpParams:
     touchdown_method : str
         ``"onset"`` (default): the landing impact's onset (:func:`sportfusion.skijump.touchdown.impact_onset`),
         eq A4 where it is not found; ``"peak"``: eq A4 (the landing peak minus ``touchdown_offset``).
+    vibration_level : float
+        A window whose ``|a|`` vibrates more than this from sample to sample (:func:`vibration_level`, a robust
+        standard deviation [m/s^2]; the paper's white noise gives about 0.1) is searched on averaged forces.
+    vibration_smoothing : float
+        Width of that average [s] (0: never).
     """
 
     min_speed: float = 10.0
@@ -116,6 +121,8 @@ class JumpParams:
     max_gnss_gap: float = 2.0
     peak_filter: float = 0.1
     touchdown_method: str = "onset"
+    vibration_level: float = 0.5
+    vibration_smoothing: float = 0.05
 
     def __post_init__(self) -> None:
         if self.touchdown_method not in TOUCHDOWN_METHODS:
@@ -125,7 +132,8 @@ class JumpParams:
 @dataclass
 class Jump:
     """One detected jump (times in the session's seconds; ``touchdown_method``: how the touch-down was found,
-    ``"onset"`` or ``"peak"``)."""
+    ``"onset"``, ``"rise"`` (the impact's rise through 5 % of its first peak, where no onset fits) or
+    ``"peak"``)."""
 
     takeoff: float
     touchdown: float
@@ -245,22 +253,40 @@ def detect_jumps(
         det.windows += 1
         tw, aw = t[i0:i1], acc_f[i0:i1]
         win = (float(tw[0]), float(tw[-1]))
-        found = _window_jump(tw, aw, p)
-        if isinstance(found, str) and robust:
-            alt = _pair_search(tw, aw, p)
+        vib = vibration_level(aw)
+        shaking = p.vibration_smoothing > 0 and vib > p.vibration_level
+        # a vibrating sensor (ski chatter, impact ringing): the peaks are searched on the force averaged over
+        # vibration_smoothing seconds (a zero-mean vibration averages out, the impulses of take-off and
+        # landing, which last about 0.1 s, stay), then the landing peak is found on the samples near it
+        src = aw if not shaking else _averaged(tw, aw if acc is None or robust else acc[i0:i1], p.vibration_smoothing)
+        found = _window_jump(tw, src, p)
+        if isinstance(found, str) and (robust or shaking):
+            alt = _pair_search(tw, src, p)
             found = alt if alt is not None else found
         if isinstance(found, str):
             det.rejected.append({"window": win, "reason": found})
             continue
         ka, kb = found
+        if shaking:
+            half = int(np.searchsorted(tw, tw[kb] + 0.5 * p.vibration_smoothing)) - kb
+            lo, hi = max(kb - half, 0), min(kb + half + 1, tw.size)
+            kb = lo + int(np.argmax(aw[lo:hi]))
         mid = (tw > tw[ka] + p.flight_trim) & (tw < tw[kb] - p.flight_trim)
-        flight = float(median(aw[mid])) if mid.any() else float(aw[ka + (kb - ka) // 2])
-        t_a, t_b = peak_time(tw, aw, ka), peak_time(tw, aw, kb)
+        flight = float(median(src[mid])) if mid.any() else float(src[ka + (kb - ka) // 2])
+        t_a, t_b = peak_time(tw, src, ka), peak_time(tw, aw, kb)
         t_td, how = t_b - p.touchdown_offset, "peak"
         if p.touchdown_method == "onset":
-            onset = impact_onset(tw, aw, kb)
+            k1 = first_impact_peak(tw, aw, kb)
+            onset = impact_onset(tw, aw, k1)
+            cross = impact_crossing(tw, aw, k1) if onset is None else None
             if onset is not None:
                 t_td, how = onset, "onset"
+            elif cross is not None:
+                t_td, how = cross, "rise"
+                det.warnings.append(
+                    f"landing at {t_b:.2f} s: no smooth impact onset found before the peak; the touch-down is where "
+                    "the impact rises through 5 % of its first peak (a few ms late)"
+                )
             else:
                 det.warnings.append(
                     f"landing at {t_b:.2f} s: no smooth impact onset found before the peak; the touch-down is "
@@ -280,6 +306,29 @@ def detect_jumps(
             )
         )
     return det
+
+
+def vibration_level(a: np.ndarray) -> float:
+    """Robust standard deviation [m/s^2] of the sample-to-sample noise of ``a``: ``1.4826 MAD(d2 a) / sqrt(6)``
+    with ``d2`` the second difference (a smooth signal has none; white noise of sigma gives sigma)."""
+    d2 = np.diff(np.asarray(a, float), 2)
+    d2 = d2[np.isfinite(d2)]
+    if d2.size < 5:
+        return 0.0
+    return float(1.4826 * median(np.abs(d2 - median(d2))) / np.sqrt(6.0))
+
+
+def _averaged(t: np.ndarray, a: np.ndarray, width: float) -> np.ndarray:
+    """Norm of the centred running mean over ``width`` [s] of ``a`` (n,) or its axes (n, 3)."""
+    dt = float(median(np.diff(t))) if t.size > 1 else 1.0
+    k = max(int(round(width / dt)) | 1, 1)
+    x = np.where(np.isfinite(a), a, 0.0)
+    x = x[:, None] if x.ndim == 1 else x
+    pad = k // 2
+    xp = np.pad(x, ((pad, pad), (0, 0)), mode="edge")
+    c = np.vstack([np.zeros((1, x.shape[1])), np.cumsum(xp, axis=0)])
+    m = (c[k:] - c[:-k]) / k
+    return np.linalg.norm(m, axis=1)
 
 
 def _flight_median(tw: np.ndarray, aw: np.ndarray, ka: int, kb: int, p: JumpParams) -> float:

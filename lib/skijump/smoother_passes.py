@@ -9,7 +9,9 @@ own), in the order the data flow:
    smoothed runs, each from the previous one's smoothed first state;
 3. the whole segment's smoothed run (:func:`sportfusion.skijump.smoother_engine.run`);
 4. the GNSS corrections (:func:`_gnss_corrections`): the latency estimated on the smoothed pass and, with a
-   known lever arm, the fixes moved from the antenna to the IMU, each followed by one more run.
+   known lever arm, the fixes moved from the antenna to the IMU, each followed by one more run;
+5. GNSS outliers (:func:`_screen_gnss`): fixes far from the smoothed track (multipath, wild fixes) skipped,
+   and one more run where there were any.
 
 :func:`smooth_inputs` returns every segment's final run as one :class:`Smoothed`.
 """
@@ -51,6 +53,7 @@ class Smoothed:
     #: (n, 28) smoothed standard deviations from the compiled backward pass: the 22 states, the hill-frame
     #: velocity, roll/pitch/yaw (None from the numpy reference engine: computed from ``cov`` instead)
     std: np.ndarray | None = None
+    gnss_outliers: list[int] = field(default_factory=list)  # GNSS fixes skipped as outliers, per segment
 
 
 def smooth_inputs(
@@ -86,7 +89,7 @@ def smooth_inputs(
         whole, work = engine_.c_buffers(inp.t.size, n_max, keep_cov)
     else:
         whole = work = None
-    runs, npass, lat = [], [], []
+    runs, npass, lat, wild = [], [], [], []
     for a, b in segments(inp.t, cfg.max_gap):
         seg = _slice(inp, a, b)
         if b - a < 2 or not np.isfinite(seg.pos[:, 0]).any():
@@ -97,13 +100,16 @@ def smooth_inputs(
         rows = tuple(w[a:b] for w in whole) if whole is not None else None
         runner = _Runner(seg, cfg, use_c, keep_cov, rows, work, progress)
         try:
-            done, n, tau = _smooth_segment(seg, cfg, runner)
+            done, n, tau, n_wild = _smooth_segment(seg, cfg, runner)
         except CovarianceError as exc:
             raise InputError(f"the smoother failed: {exc}") from None
         runs.append(done)
         npass.append(n)
         lat.append(tau)
-    return _collect(inp, runs, npass, lat, whole, keep_cov)
+        wild.append(n_wild)
+    out = _collect(inp, runs, npass, lat, whole, keep_cov)
+    out.gnss_outliers = wild
+    return out
 
 
 class _Runner:
@@ -129,14 +135,44 @@ class _Runner:
         return engine_.run(sub, self.cfg, x0, self.P0, self.use_c, smooth, self.keep_cov, out, self.work, self.progress)
 
 
-def _smooth_segment(seg: SkiJumpInputs, cfg: SmootherConfig, run: _Runner) -> tuple[Run, int, float | None]:
-    """One segment from its initial state to its final run: ``(run, runs made, GNSS latency [s] or None)``."""
+def _smooth_segment(seg: SkiJumpInputs, cfg: SmootherConfig, run: _Runner) -> tuple[Run, int, float | None, int]:
+    """One segment from its initial state to its final run: ``(run, runs made, GNSS latency [s] or None, GNSS fixes
+    skipped as outliers)``."""
     x0, P0, aligned, n_rest = initial_state(seg, cfg, with_source=True)
     run.P0 = P0  # every run over the segment starts from the initial covariance (the mean is re-linearised)
     nw = start_window(seg, cfg)
     done, it = _start_passes(seg, cfg, run, x0, nw, aligned, n_rest)
     done, it, tau = _gnss_corrections(seg, cfg, run, done, it)
-    return done, it + 1, tau
+    n_wild = _screen_gnss(seg, done.x_smooth, cfg) if cfg.gnss_outlier_sigma > 0 else 0
+    if n_wild:
+        done = run(seg, _unit_quat(done.x_smooth[0]))
+        it += 1
+    return done, it + 1, tau, n_wild
+
+
+def _screen_gnss(seg: SkiJumpInputs, xs: np.ndarray, cfg: SmootherConfig) -> int:
+    """GNSS fixes far from the smoothed track set to NaN on ``seg`` (new arrays); returns how many (issue 39).
+
+    After the latency and lever-arm corrections the fixes' distance from the smoothed positions is the GNSS
+    error itself: mostly slow drift (the median per axis), white noise, and -- what this removes -- multipath
+    episodes of metres and wild fixes of tens of metres, which the smoother's Gaussian model (Table 5: 3/3/5 m)
+    would otherwise partly follow.  A fix is skipped (position and velocity) where any axis lies more than
+    ``cfg.gnss_outlier_sigma`` robust standard deviations (1.4826 MAD, at least ``cfg.gnss_outlier_floor`` m)
+    from that axis' median.
+    """
+    n = xs.shape[0]
+    ok = np.flatnonzero(np.isfinite(seg.pos[:n, 0]))
+    if ok.size < 10:
+        return 0
+    r = seg.pos[ok] - xs[ok, 0:3]
+    med = np.median(r, axis=0)
+    scale = np.maximum(1.4826 * np.median(np.abs(r - med), axis=0), cfg.gnss_outlier_floor)
+    bad = ok[np.any(np.abs(r - med) > cfg.gnss_outlier_sigma * scale, axis=1)]
+    if bad.size:
+        seg.pos, seg.vel = seg.pos.copy(), seg.vel.copy()
+        seg.pos[bad] = np.nan
+        seg.vel[bad] = np.nan
+    return int(bad.size)
 
 
 def _start_passes(
@@ -193,22 +229,22 @@ def _gnss_corrections(
     lever = np.asarray(cfg.lever_arm, float) if any(cfg.lever_arm) else None
     ant_pos, ant_vel = seg.pos, seg.vel  # the fixes as logged: at the antenna, with their latency
     tos = [a for a, _ in seg.jumps if seg.t[0] <= a <= seg.t[-1]]
-    tau = None
+    tau, applied = None, False
     if cfg.estimate_latency and cfg.passes > 1 and tos:
-        tau = _correct_latency(seg, done.x_smooth, min(tos), seg.t[-1], cfg.latency_min)
-        if tau is not None and abs(tau) >= cfg.latency_min:
+        tau, applied = _correct_latency(seg, done.x_smooth, min(tos), seg.t[-1], cfg.latency_min, cfg.latency_sigmas)
+        if applied:
             if lever is not None:
                 _remove_lever_arm(seg, done.x_smooth, lever)
             done = run(seg, _unit_quat(done.x_smooth[0]))
             it += 1
-            more = _correct_latency(seg, done.x_smooth, min(tos), seg.t[-1], 0.0)
+            more, _ = _correct_latency(seg, done.x_smooth, min(tos), seg.t[-1], 0.0, 0.0)
             if more is not None:
                 tau += more
                 done = run(seg, _unit_quat(done.x_smooth[0]))
                 it += 1
     if lever is not None:
         seg.pos, seg.vel = ant_pos, ant_vel
-        if tau is not None and abs(tau) >= cfg.latency_min:
+        if applied and tau is not None:
             vel_hill = rotations.ned_to_local(seg.vel, seg.azimuth_deg)
             seg.pos, seg.vel = shift_gnss(seg.t, seg.pos, vel_hill, seg.vel, tau)
         _remove_lever_arm(seg, done.x_smooth, lever)
@@ -217,19 +253,21 @@ def _gnss_corrections(
     return done, it, tau
 
 
-def _correct_latency(seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float) -> float | None:
+def _correct_latency(
+    seg: SkiJumpInputs, xs: np.ndarray, t_takeoff: float, t_end: float, least: float, sigmas: float
+) -> tuple[float | None, bool]:
     """Estimate the GNSS latency from a smoothed pass over the in-run and take-off, and move the segment's
     GNSS fixes to the time they describe (in place: new arrays on ``seg``) when it is at least ``least``
-    [s] (smaller estimates are within the estimate's own noise: about 0.01 s on simulated jumps).
-    Returns the estimate [s] (None where the data do not show one)."""
+    [s] and ``sigmas`` of its standard error (smaller estimates are within the estimate's own noise).
+    Returns the estimate [s] (None where the data do not show one) and whether the fixes were moved."""
     n = xs.shape[0]
     span = (max(seg.t[0], t_takeoff - 6.0), min(t_end, t_takeoff + 4.0))
-    tau = gnss_latency(seg.t[:n], seg.u[:n], xs, seg.vel[:n], seg.g0, span)
-    if tau is None or abs(tau) < least:
-        return tau
+    tau, std = gnss_latency(seg.t[:n], seg.u[:n], xs, seg.vel[:n], seg.g0, span, with_std=True)
+    if tau is None or abs(tau) < least or abs(tau) < sigmas * std:
+        return tau, False
     vel_hill = rotations.ned_to_local(seg.vel, seg.azimuth_deg)
     seg.pos, seg.vel = shift_gnss(seg.t, seg.pos, vel_hill, seg.vel, tau)
-    return tau
+    return tau, True
 
 
 def _unit_quat(x: np.ndarray) -> np.ndarray:

@@ -61,7 +61,7 @@ from sportfusion.core.rotations import ned_to_local
 from sportfusion.core.stats import median
 from sportfusion.estimators.spline import ambiguity_weights, epoch_weights, gcv_lambda, smoothing_spline
 from sportfusion.estimators.spline_gaps import gap_std
-from sportfusion.estimators.spline_robust import robust_weights
+from sportfusion.estimators.spline_robust import robust_fit
 
 GAP_FACTOR = 1.5  # an interval longer than this times the median epoch spacing is a data gap
 BREAK_FACTOR = 5.0  # a gap longer than --max-gap and this many median spacings splits the track
@@ -128,59 +128,60 @@ def smooth_track(
     """
     t = np.asarray(t, float)
     pos = np.asarray(pos, float)
-    has = np.all(np.isfinite(pos), axis=1)
     warnings: list[str] = []
-    k = np.flatnonzero(has)
-    if k.size < 4:
-        raise InputError(f"only {k.size} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
-    every_epoch = k.size == t.size  # a GNSS-only table: every row is an epoch (no copies, no row search)
-    tk = t if every_epoch else t[k]
-    yk = pos if every_epoch else pos[k]
-    sk_in = None if sigma is None else np.asarray(sigma, float)[k]  # (a copy: changed in place below)
+    every_epoch = bool(np.isfinite(pos).all())  # a GNSS-only table: every row is an epoch (no copies, no row search)
+    has = np.ones(t.size, bool) if every_epoch else np.all(np.isfinite(pos), axis=1)
+    k = None if every_epoch else np.flatnonzero(has)  # the epochs' rows (None: every row)
+    ne = t.size if k is None else k.size  # epochs
+    if ne < 4:
+        raise InputError(f"only {ne} row(s) have a GNSS position (gnss_x gnss_y gnss_z); at least 4 are needed")
+    sel = slice(None) if k is None else k  # (every row: views, not copies)
+    tk, yk = t[sel], pos[sel]
+    sk_in = None if sigma is None else np.asarray(sigma, float)[sel]  # (maybe the caller's: copied before filling)
+    fk = None if fix is None else np.asarray(fix, float)[sel]
     if weighting == "uniform":
         # one weight for every epoch, on the scale of eq 6's fixed epochs so that lambda keeps its meaning
-        sk0 = None if sigma is None else np.asarray(sigma, float)[k]
+        sk0 = sk_in
         scale = np.nanmedian(sk0, axis=0) if sk0 is not None and np.isfinite(sk0).any() else np.ones(3)
-        if fix is not None and sk0 is not None:
-            fixed = np.asarray(fix, float)[k] == 4
+        if fk is not None and sk0 is not None:
+            fixed = fk == 4
             if fixed.any() and np.isfinite(sk0[fixed]).any():
                 scale = np.nanmedian(sk0[fixed], axis=0)
-        w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (k.size, 3))
+        w = np.broadcast_to(1.0 / np.where(np.isfinite(scale) & (scale > 0), scale, 1.0), (ne, 3))
     elif weighting == "eq6":
         if fix is None:
             warnings.append("no gnss_fix column: every epoch is weighted as RTK fixed")
-            w_amb = np.ones(k.size)
+            w_amb = np.ones(ne)
         else:
-            f = np.asarray(fix, float)[k]
             w_amb = ambiguity_weights(
-                np.where(np.isfinite(f), f, -1).astype(int),
+                np.where(np.isfinite(fk), fk, -1).astype(int),
                 w_float=w_float,
                 w_trans=w_trans,
                 no_trans=no_trans,
                 edge_factor=edge_factor,
             )
         w = epoch_weights(w_amb, sk_in)  # (epoch_weights copies what it fills)
+        del w_amb
     else:
         raise InputError(f"weighting {weighting!r} is not eq6 or uniform")
     sk = sk_in
-    if sk is not None and not np.isfinite(sk).any():
-        sk = None
-    if sk is not None:
-        ok = np.isfinite(sk) & (sk > 0)
+    ok = None if sk is None else np.isfinite(sk) & (sk > 0)
+    if sk is not None and not ok.all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+        sk = sk.copy()
         for c in range(3):
-            if not ok[:, c].any():
+            if not ok[:, c].any():  # no sigma for an axis: no 1-sigma out
                 sk = None
                 break
-            if not ok[:, c].all():  # (the median of 1e6 sigmas costs 10-30 ms: only where something is filled)
+            if not ok[:, c].all():
                 sk[~ok[:, c], c] = median(sk[ok[:, c], c])
-    w = np.broadcast_to(np.asarray(w, float).reshape(k.size, -1), (k.size, 3))
+    w = np.broadcast_to(np.asarray(w, float).reshape(ne, -1), (ne, 3))
     vk = None
     spk = None
     if robust:
-        vk = None if vel is None else np.asarray(vel, float)[k]
+        vk = None if vel is None else np.asarray(vel, float)[sel]
         if vk is not None:
             vk = vk[:, : (3 if np.isfinite(vk[:, 2]).any() else 2)]
-        spk = None if speed is None or vk is not None else np.asarray(speed, float)[k]
+        spk = None if speed is None or vk is not None else np.asarray(speed, float)[sel]
 
     # the track's segments: split at the gaps the data cannot bridge (module text)
     n = t.size
@@ -188,7 +189,7 @@ def smooth_track(
     step = float(median(dtk))
     split_at = max(max_gap, BREAK_FACTOR * step)
     brk = np.flatnonzero(dtk > split_at)
-    bounds = list(zip(np.r_[0, brk + 1], np.r_[brk + 1, k.size], strict=True))
+    bounds = list(zip(np.r_[0, brk + 1], np.r_[brk + 1, ne], strict=True))
     fitted = [(a, b) for a, b in bounds if b - a >= 2]
     if not fitted:
         raise InputError(
@@ -196,13 +197,14 @@ def smooth_track(
         )
     isolated = sum(1 for a, b in bounds if b - a < 2)
 
-    rw = np.ones(k.size)
+    rw = np.ones(ne)
     fits = []
     for a, b in fitted:
-        ws = np.array(w[a:b], float)
+        ws = w[a:b]
         ss = None if sk is None else sk[a:b]
+        knots = None  # the robust screen's last fit, when it is the final one
         if robust:
-            rws = robust_weights(
+            rws, knots = robust_fit(
                 tk[a:b],
                 yk[a:b],
                 ws,
@@ -212,7 +214,8 @@ def smooth_track(
                 speed=None if spk is None else spk[a:b],
             )
             rw[a:b] = rws
-            ws = ws * rws[:, None]
+            if rws.min() < 1.0:  # (times 1: the same weights)
+                ws = ws * rws[:, None]
         if lam is None and robust and (rw[a:b] < 0.1).any() and (rw[a:b] >= 0.1).sum() >= 4:
             # GCV chooses lambda on the fixes the robust screen kept: a weighted-down outlier still counts in
             # GCV's trace and pulls its choice towards interpolation, which then follows the outliers
@@ -220,26 +223,28 @@ def smooth_track(
             lam_axes = [gcv_lambda(tk[a:b][keep], yk[a:b][keep, c], ws[keep, c]) for c in range(3)]
             fits.append(_fit_axes(tk[a:b], yk[a:b], ws, lam_axes, segments, ss))
         else:
-            fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss))
+            reuse = knots if lam is not None and not segments else None
+            fits.append(smoothing_spline(tk[a:b], yk[a:b], ws, lam, segments=segments, sigma=ss, knots=reuse))
+    del w, ws  # (the weights, 24 MB at 1e6 epochs, are not held while the output columns are made)
     if robust:
         n_out = int(np.sum(rw < 0.1))
         if n_out:
             how = "receiver velocity and " if vk is not None else ("receiver speed and " if spk is not None else "")
             warnings.append(
-                f"{n_out} of {k.size} GNSS fix(es) disagree with their neighbours ({how}the spline through the others) "
+                f"{n_out} of {ne} GNSS fix(es) disagree with their neighbours ({how}the spline through the others) "
                 "beyond their stated accuracy: weighted down (see column gnss_weight)"
             )
 
     # rows that get a value: inside a fitted segment and not in a gap longer than max_gap (an epoch always
     # does; only the rows without a position are searched among the epochs)
-    seg_of_epoch = np.full(k.size, -1)
-    for s_i, (a, b) in enumerate(fitted):
-        seg_of_epoch[a:b] = s_i
     in_gap = np.zeros(n, bool)
     too_long = np.zeros(n, bool)
     cover = has.copy()
+    lone = np.ones(ne, bool)  # epochs in no fitted segment: isolated fixes between long gaps
+    for a, b in fitted:
+        lone[a:b] = False
     if isolated:
-        cover[k[seg_of_epoch < 0]] = False
+        cover[np.flatnonzero(has)[lone]] = False
     nopos = np.flatnonzero(~has)
     if nopos.size:
         tn = t[nopos]
@@ -265,10 +270,8 @@ def smooth_track(
 
     # a consumer track (no RTK fixed/float epoch, heights not stated to better than 0.2 m): its height wiggles
     # by metres from fix to fix, so speed and distance take the height smoothed over VERTICAL_WINDOW
-    fk = None if fix is None else np.asarray(fix, float)[k]
     rtk = fk is not None and bool(np.isin(fk, (4, 5)).any())
-    sv_med = float(median(sk[:, 2])) if sk is not None else np.inf
-    consumer = not rtk and sv_med > 0.2
+    consumer = not rtk and (sk is None or float(median(sk[:, 2])) > 0.2)
     cols: dict[str, np.ndarray] = {}
     names = [f"{p}{a}" for p in ("", "v", "a") for a in "xyz"] + ["speed", "distance", "course"]
     with_std = fits[0].std is not None
@@ -285,7 +288,7 @@ def smooth_track(
     for s_i, ((a, b), fit) in enumerate(zip(fitted, fits, strict=True)):
         r0 = int(np.searchsorted(t, tk[a], side="left"))
         r1 = int(np.searchsorted(t, tk[b - 1], side="right"))
-        rows = r0 + np.flatnonzero(cover[r0:r1])
+        rows = slice(r0, r1) if cover[r0:r1].all() else r0 + np.flatnonzero(cover[r0:r1])  # (a slice: views)
         tr = t[rows]
         segment_no[rows] = s_i
         val, d1, d2 = fit.spline.evaluate(tr)
@@ -293,13 +296,20 @@ def smooth_track(
             speed_s, dist = _consumer_speed_distance(fit.spline, tk[a], tk[b - 1], tr, d1)
             seg_end = float(dist[-1])
         else:
-            speed_s, dist = np.sqrt(np.einsum("ij,ij->i", d1, d1)), fit.spline.arc_length(tr)
-            seg_end = float(fit.spline.arc_length(np.array([tk[b - 1]]))[0])
-        seg_cols = {"speed": speed_s, "distance": carried + dist}
+            speed_s = np.einsum("ij,ij->i", d1, d1)
+            speed_s, dist = np.sqrt(speed_s, out=speed_s), fit.spline.arc_length(tr)
+            # the segment's last row is its last epoch (an epoch always gets a value)
+            seg_end = float(dist[-1] if tr[-1] == tk[b - 1] else fit.spline.arc_length(np.array([tk[b - 1]]))[0])
+        dist += carried
+        seg_cols = {"speed": speed_s, "distance": dist}
         for i, ax in enumerate("xyz"):
             seg_cols[ax], seg_cols[f"v{ax}"], seg_cols[f"a{ax}"] = val[:, i], d1[:, i], d2[:, i]
-        # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product)
-        seg_cols["course"] = np.arctan2(d1[:, 0] * sa + d1[:, 1] * ca, d1[:, 0] * ca - d1[:, 1] * sa)
+        # NED of the horizontal velocity (local_to_ned, written out: no (N, 3) matrix product; in place, as the
+        # columns at 1e6 rows are 8 MB each)
+        east, north = d1[:, 0] * sa, d1[:, 0] * ca
+        east += d1[:, 1] * ca
+        north -= d1[:, 1] * sa
+        seg_cols["course"] = np.arctan2(east, north, out=east)
         carried += seg_end
         if with_std:
             seg_cols.update(_segment_std(fit, tk[a:b], yk[a:b], t, rows, has, in_gap, step))
@@ -320,9 +330,9 @@ def smooth_track(
             "(spline_filled; their std grows across the gap)"
         )
     if robust:
-        gw = rw.copy()
+        gw = rw.copy() if isolated else rw
         if isolated:
-            gw[seg_of_epoch < 0] = np.nan
+            gw[lone] = np.nan
         if every_epoch:
             cols["gnss_weight"] = gw
         else:
@@ -331,8 +341,8 @@ def smooth_track(
             cols["gnss_weight"] = full
     main = max(range(len(fitted)), key=lambda i: fitted[i][1] - fitted[i][0])
     info = {
-        "epochs": int(k.size),
-        "not_fixed": int(np.sum(np.asarray(fix, float)[k] != 4)) if fix is not None else 0,
+        "epochs": int(ne),
+        "not_fixed": int(np.sum(fk != 4)) if fk is not None else 0,
         "filled_rows": int(filled.sum()),
         "downweighted": int(np.sum(rw < 0.1)),
         # outside the --segment spans when they are given; of the longest track segment when split
@@ -419,41 +429,48 @@ def _segment_std(
     tk: np.ndarray,
     yk: np.ndarray,
     t: np.ndarray,
-    rows: np.ndarray,
+    rows: np.ndarray | slice,
     has: np.ndarray,
     in_gap: np.ndarray,
     step: float,
 ) -> dict[str, np.ndarray]:
     """std_x/y/z at ``rows`` of one track segment: the propagated noise, and inside its gaps the bridge error."""
     edge = _at_rows(fit.std, tk, t, rows, has)
-    big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
-    gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
-    # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
-    # (the spline's values at the knots are its knot values g: no evaluation needed)
-    resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
     g = in_gap[rows]
-    inside_gap = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid)) if g.any() else None
+    inside_gap = None
+    if g.any():
+        big = np.flatnonzero(np.diff(tk) > GAP_FACTOR * step)
+        gaps = [(float(tk[j]), float(tk[j + 1])) for j in big]
+        # inside a gap the noise std is floored at the fit's residual RMS (the track's own error level)
+        # (the spline's values at the knots are its knot values g: no evaluation needed)
+        resid = np.sqrt(np.mean((fit.spline.g - yk) ** 2, axis=0))
+        inside_gap = gap_std(fit.spline, tk, gaps, t[rows], np.maximum(edge, resid))
     out = {}
     for i, a in enumerate("xyz"):
-        s = edge[:, i].copy()
+        s = edge[:, i]
         if inside_gap is not None:
+            s = s.copy()
             s[g] = inside_gap[g, i]
         out[f"std_{a}"] = s
     return out
 
 
-def _at_rows(values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray, has: np.ndarray) -> np.ndarray:
-    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``.
+def _at_rows(
+    values: np.ndarray, tk: np.ndarray, t: np.ndarray, rows: np.ndarray | slice, has: np.ndarray
+) -> np.ndarray:
+    """``values`` (n_epochs, d) given at the epochs ``tk`` [s], linearly interpolated to the rows ``t[rows]``
+    (``rows`` indices or a slice).
 
     Equal to :func:`numpy.interp` per column; rows that are epochs (``has``) take their epoch's value
     directly and only the others are interpolated (on a GNSS-only table nothing is).
     """
     ep = has[rows]
-    if ep.all() and rows.size == tk.size:
+    if ep.all() and ep.size == tk.size:
         return values
-    out = np.empty((rows.size, values.shape[1]))
-    out[ep] = values[np.searchsorted(tk, t[rows[ep]])]
-    other = t[rows[~ep]]
+    tr = t[rows]
+    out = np.empty((ep.size, values.shape[1]))
+    out[ep] = values[np.searchsorted(tk, tr[ep])]
+    other = tr[~ep]
     for c in range(values.shape[1]):
         out[~ep, c] = np.interp(other, tk, values[:, c])
     return out

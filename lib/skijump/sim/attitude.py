@@ -125,8 +125,12 @@ def attitude(
     heading_j_rate: np.ndarray,
     arm: ArmMotion,
     m_ba: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+    jumper: bool = False,
+) -> tuple[np.ndarray, ...]:
     """Quaternion ``q_BO`` (n, 4) and body rate ``omega_B`` (n, 3) [rad/s] of the phone.
+
+    With ``jumper``, also the jumper frame's ``M_JO`` (n, 3, 3) and its rate ``omega_JO^J`` (n, 3) [rad/s]
+    (where a helmet antenna is fixed).
 
     Parameters
     ----------
@@ -154,4 +158,4 @@ def attitude(
     # a continuous sign (q and -q are the same attitude)
     flip = np.cumsum(np.concatenate(([0], (np.einsum("ni,ni->n", q[1:], q[:-1]) < 0).astype(int)))) % 2 == 1
     q[flip] *= -1
-    return q, w_b
+    return (q, w_b, m_jo, w_jo) if jumper else (q, w_b)

@@ -4,8 +4,9 @@
 :class:`ContactPath` bridges the profile's curvature jumps (E2, P, L, U) by a correction of at most
 ``max_deviation`` (0.45 mm) vertically that is C2 at the junction and C5 at its ends, and
 :func:`curvilinear` / :func:`cartesian` convert motion along the path (arc length [m] and its
-derivatives) to and from the hill frame.  Used by :mod:`sportfusion.skijump.sim.motion`; ``ODE`` is the
-integrator setting of every phase (DOP853 at 1e-12).
+derivatives) to and from the hill frame.  Used by :mod:`sportfusion.skijump.sim.motion`; ``ODE_STEP`` is the
+fixed step of every phase's integration (:func:`sportfusion.sim.ode.solve_fixed`: RK4 on 1 ms, the same
+numbers on every scipy release) and ``STEP_PLAN`` the coarser one of the planning searches.
 """
 
 from __future__ import annotations
@@ -18,7 +19,10 @@ import numpy as np
 
 from sportfusion.sim.smooth import smoothstep5
 
-ODE = {"method": "DOP853", "rtol": 1e-12, "atol": 1e-12, "dense_output": True}
+#: Integration step of the truth [s] (RK4; its error is far below a micrometre, module text of sim.ode).
+ODE_STEP = 1e-3
+#: Step of the planning searches (lift area, braking) [s]: their answers only need millimetres.
+STEP_PLAN = 4e-3
 
 
 @dataclass

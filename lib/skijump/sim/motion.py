@@ -63,8 +63,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sportfusion.core.errors import InputError
+from sportfusion.sim.ode import EventSpec, solve_fixed
 from sportfusion.sim.smooth import pulse_rise_for_peak, pulse_s, smoothstep, smoothstep_s
-from sportfusion.skijump.sim.contact import ODE, ContactPath, HillGeometry, cartesian, curvilinear
+from sportfusion.skijump.sim.contact import ODE_STEP, STEP_PLAN, ContactPath, HillGeometry, cartesian, curvilinear
 
 
 @dataclass
@@ -104,6 +105,10 @@ class MotionParams:
     brake_ramp: float = 10.0  # distance over which braking builds up [m]
     stop_fraction: float = 0.85  # fraction of the flat out-run used to stop [-]
     dt: float = 0.01  # truth/IMU sample interval [s]
+    # the landing continues the flight's jerk (no kink in the 100 Hz samples of the paper mode); the full
+    # physics (1 kHz, an impact is a kink) leaves it: the jerk's finite differences of the profile spline's third
+    # derivative carry its last bits, which differ between scipy releases, into 1e-4 of the landing
+    match_jerk: bool = True
 
 
 # ----------------------------------------------------------------------------- landing settle
@@ -202,8 +207,9 @@ class MotionTruth:
 class JumpMotion:
     """Builds the truth motion of one jump; see the module text for the model."""
 
-    def __init__(self, hill: HillGeometry, p: MotionParams) -> None:
+    def __init__(self, hill: HillGeometry, p: MotionParams, step: float = ODE_STEP) -> None:
         self.hill, self.p, self.g = hill, p, float(hill.g)
+        self.step = float(step)  # the in-run's integration step [s] (coarser for the planning's candidates)
         self.inrun = ContactPath(hill.z_inrun, hill.x_start, 0.0, hill.inrun_junctions)
         self.landing = ContactPath(hill.z_landing, 0.0, hill.x_end, hill.landing_junctions)
         self.k_in = p.rho * p.cda_inrun / (2 * p.mass)
@@ -229,16 +235,14 @@ class JumpMotion:
         return (sdd - xd * xd * z1 * z2 / w) / w
 
     def _solve_inrun(self) -> None:
-        from scipy.integrate import solve_ivp
-
-        def rhs(tau: float, y: np.ndarray) -> tuple[float, float]:
+        def rhs(tau: float, y: tuple[float, ...]) -> tuple[float, float]:
             return y[1], self._inrun_xdd(tau, y[0], y[1])
 
-        def edge(tau: float, y: np.ndarray) -> float:
+        def edge(tau: float, y: tuple[float, ...]) -> float:
             return y[0]
 
-        edge.terminal, edge.direction = True, 1.0  # type: ignore[attr-defined]
-        sol = solve_ivp(rhs, (0.0, 120.0), [self.hill.x_start, 0.0], events=edge, **ODE)
+        ev = EventSpec(edge, terminal=True, direction=1.0)
+        sol = solve_fixed(rhs, (0.0, 120.0), [self.hill.x_start, 0.0], self.step, events=[ev])
         if sol.status != 1:
             raise InputError(
                 f"the jumper does not reach the take-off edge from x = {self.hill.x_start:.1f} m; "
@@ -299,39 +303,51 @@ class JumpMotion:
         )
 
     def _solve_flight(self, cla: float, dense: bool) -> tuple[object, float]:
-        from scipy.integrate import solve_ivp
-
-        def rhs(tau: float, y: np.ndarray) -> tuple[float, ...]:
+        def rhs(tau: float, y: tuple[float, ...]) -> tuple[float, ...]:
             return (y[3], y[4], y[5], *self._flight_a(tau, y[3], y[4], y[5], cla))
 
-        def touch(tau: float, y: np.ndarray) -> float:
+        def touch(tau: float, y: tuple[float, ...]) -> float:
             if tau < 0.2:
                 return 1.0
+            above = self.landing.zs(y[0])[0] - y[2]  # vertical height above the landing path [m]
+            if above > 3.0:  # far above: the (costly) normal height is not needed for the sign
+                return above
             d, d_rate = self.normal_state(y[0], y[2], y[3], y[5])
             return d + self.centroid * min(d_rate, 0.0)
 
-        touch.terminal, touch.direction = True, -1.0  # type: ignore[attr-defined]
-        opts = dict(ODE) if dense else {"method": "DOP853", "rtol": 1e-9, "atol": 1e-9}
-        sol = solve_ivp(rhs, (0.0, 30.0), np.concatenate((self.r_to, self.v_to)), events=touch, **opts)
+        ev = EventSpec(touch, terminal=True, direction=-1.0)
+        y0 = np.concatenate((self.r_to, self.v_to))
+        sol = solve_fixed(rhs, (0.0, 30.0), y0, ODE_STEP if dense else STEP_PLAN, events=[ev])
         if sol.status != 1:
             raise InputError("the simulated flight never comes down to the landing profile; expected a landing")
         return sol, float(sol.t_events[0][0])
 
     def normal_state(self, x: float, z: float, vx: float, vz: float) -> tuple[float, float]:
-        """Height above the landing profile [m] along its normal, and its rate [m/s], of a point in (x, z)."""
-        xp, d = self.landing.foot(np.array(x), np.array(z))
-        fr = self.landing.frame(np.asarray(xp))
-        a = fr["dP"] + d * fr["dn"]
-        n = fr["n"]
-        det = a[0] * n[1] - a[1] * n[0]
-        return float(d), float((a[0] * vz - a[1] * vx) / det)
+        """Height above the landing profile [m] along its normal, and its rate [m/s], of a point in (x, z).
 
-    def _curvilinear_jerk(self, fsol: object, tau_f: float, h: float = 2e-4) -> tuple[float, float]:
+        Scalar Newton iterations on the path's polynomial (:meth:`ContactPath.zs`), as
+        :meth:`ContactPath.foot` and :meth:`ContactPath.frame` do for arrays.
+        """
+        xp = float(x)
+        for _ in range(8):
+            z0, z1, z2 = self.landing.zs(xp)
+            xp -= ((x - xp) + (z - z0) * z1) / (-1.0 - z1 * z1 + (z - z0) * z2)
+        z0, z1, z2 = self.landing.zs(xp)
+        w = math.sqrt(1.0 + z1 * z1)
+        d = ((x - xp) * z1 - (z - z0)) / w
+        n0, n1 = z1 / w, -1.0 / w
+        c = z1 * z2 / w**3
+        a0 = 1.0 + d * (z2 / w - z1 * c)
+        a1 = z1 + d * c
+        det = a0 * n1 - a1 * n0
+        return d, (a0 * vz - a1 * vx) / det
+
+    def _curvilinear_jerk(self, fsol: object, tau_f: float, h: float = 2e-3) -> tuple[float, float]:
         """Rates ``x_p'''`` [m/s^3] and ``d'''`` [m/s^3] of the flight's curvilinear accelerations at ``tau_f``.
 
-        One-sided second-order differences along the flight before the
+        One-sided fourth-order differences (2 ms step) along the flight before the
         touch-down (foot point on the landing path and height above it; the
-        flight ODE is solved to 1e-12).  The landing continues both, so the
+        flight ODE is solved by RK4 on 1 ms).  The landing continues both, so the
         sensor's acceleration has no kink at the touch-down.
         """
         cla = self.p.cla_flight
@@ -342,7 +358,10 @@ class JumpMotion:
             c = curvilinear(self.landing, y[[0, 2]], y[[3, 5]], a[[0, 2]])
             return np.array([c[2], c[5]])
 
-        j = (3 * acc(tau_f) - 4 * acc(tau_f - h) + acc(tau_f - 2 * h)) / (2 * h)
+        # fourth-order one-sided differences on a 2 ms step: a shorter step amplified the last bits of the
+        # profile spline (which differ between scipy releases) into 1e-4 of the jerk
+        f = [acc(tau_f - k * h) for k in range(5)]
+        j = (25 * f[0] - 48 * f[1] + 36 * f[2] - 16 * f[3] + 3 * f[4]) / (12 * h)
         return float(j[0]), float(j[1])
 
     def length_for_lift(self, cla: float) -> float:
@@ -380,8 +399,6 @@ class JumpMotion:
         tangential force continues the flight's ``x_p''`` (``e0``) and ``x_p'''``
         (``e1``) at the touch-down.
         """
-        from scipy.integrate import solve_ivp
-
         p = self.p
         _, z1, z2 = self.landing.zs(xp0)
         w0 = math.sqrt(1 + z1 * z1)
@@ -391,24 +408,26 @@ class JumpMotion:
             xp = xp0 + h * (xpd0 + h * (xpdd0 / 2 + h * xpddd0 / 6))
             return self._landing_xdd(h, xp, xpd0 + h * (xpdd0 + h * xpddd0 / 2), settle, e0, 0.0)
 
-        hh = 1e-4
-        e1 = (xpddd0 - (-3 * xdd(0.0) + 4 * xdd(hh) - xdd(2 * hh)) / (2 * hh)) * w0  # x_p''' -> s'''
+        hh = 2e-3  # fourth-order forward differences (as _curvilinear_jerk: robust to the last bits)
+        if p.match_jerk:
+            fx = [xdd(k * hh) for k in range(5)]
+            e1 = (xpddd0 - (-25 * fx[0] + 48 * fx[1] - 36 * fx[2] + 16 * fx[3] - 3 * fx[4]) / (12 * hh)) * w0
+        else:
+            e1 = 0.0
         x_goal = self.hill.x_flat + p.stop_fraction * (self.hill.x_end - self.hill.x_flat)
 
         def solve(brake: float, dense: bool, until: float = np.inf):  # noqa: ANN202
-            def rhs(tau: float, y: np.ndarray) -> tuple[float, ...]:
+            def rhs(tau: float, y: tuple[float, ...]) -> tuple[float, ...]:
                 return y[1], self._landing_xdd(tau, y[0], y[1], settle, e0, brake, e1), y[3], settle.acc_s(tau)
 
-            def stop(tau: float, y: np.ndarray) -> float:
+            def stop(tau: float, y: tuple[float, ...]) -> float:
                 return y[1] - 1e-6
 
-            def end(tau: float, y: np.ndarray) -> float:
+            def end(tau: float, y: tuple[float, ...]) -> float:
                 return y[0] - min(until, self.hill.x_end)
 
-            stop.terminal, stop.direction = True, -1.0  # type: ignore[attr-defined]
-            end.terminal = True  # type: ignore[attr-defined]
-            opts = dict(ODE) if dense else {"method": "DOP853", "rtol": 1e-8, "atol": 1e-8}
-            return solve_ivp(rhs, (0.0, 300.0), [xp0, xpd0, d0, dd0], events=(stop, end), **opts)
+            evs = [EventSpec(stop, terminal=True, direction=-1.0), EventSpec(end, terminal=True)]
+            return solve_fixed(rhs, (0.0, 300.0), [xp0, xpd0, d0, dd0], ODE_STEP if dense else STEP_PLAN, events=evs)
 
         # braking: the speed at the flat out-run without braking, then the deceleration that
         # stops the jumper near the goal (raised while it would overshoot the out-run)
@@ -463,7 +482,7 @@ class JumpMotion:
         r_td, v_td = fsol.sol(tau_f)[:3], fsol.sol(tau_f)[3:]
         a_td = np.array(self._flight_a(tau_f, *v_td, p.cla_flight))
         xp0, xpd0, xpdd0, d0, dd0, ddd0 = curvilinear(self.landing, r_td[[0, 2]], v_td[[0, 2]], a_td[[0, 2]])
-        xpddd0, dddd0 = self._curvilinear_jerk(fsol, tau_f)
+        xpddd0, dddd0 = self._curvilinear_jerk(fsol, tau_f) if p.match_jerk else (0.0, 0.0)
         settle = Settle(d0, dd0, ddd0, p.impact_peak, p.impact_decay, p.settle_time, dddd0)
         lsol, stop_rel, e0, e1 = self._solve_landing(xp0, xpd0, xpdd0, xpddd0, d0, dd0, settle)
         t_stop = t_td + stop_rel

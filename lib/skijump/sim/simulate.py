@@ -41,14 +41,18 @@ from sportfusion.core import meta as sfmeta
 from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.magfield import reference_field
+from sportfusion.sim.ode import bisect_root
 from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.skijump.sim.attitude import arm_motion, attitude, mounting
-from sportfusion.skijump.sim.contact import HillGeometry
+from sportfusion.skijump.sim.contact import ODE_STEP, STEP_PLAN, HillGeometry
 from sportfusion.skijump.sim.motion import JumpMotion, MotionParams, MotionTruth
+from sportfusion.skijump.sim.sensors import VARIANTS, Realism
 
 IMU_RATE = 100.0  # [Hz]
 GNSS_EVERY = 10  # GNSS on every tenth IMU sample: 10 Hz
+#: The sensor models: the independent full physics (default) or the paper's eqs 35-39.
+PHYSICS = ("full", "paper")
 #: Published ranges used for the flight's lift area [m^2] when the distance is solved for.
 LIFT_RANGE = (0.3, 1.2)
 
@@ -82,6 +86,12 @@ class SkiJumpConfig:
     wind: tuple[float, float] | None = None  # headwind [m/s] and gust amplitude [m/s] in flight
     geoid_separation: float = 47.9  # written into the NMEA log [m]
     noise: bool = True  # False: sensors without biases and noise (truth values)
+    # "full": the physics of sportfusion.skijump.sim.sensors (independent of the smoother's model; the
+    # sigmas above and lever_arm/gnss_latency/height_error then give way to the Realism settings, the three
+    # options still overriding where set); "paper": eqs 35-39 with the Table 3-5 sigmas above
+    physics: str = "full"
+    variants: tuple[str, ...] = ()  # sportfusion.skijump.sim.sensors.VARIANTS applied to the full physics
+    realism: Realism | None = None  # explicit full-physics settings (variants are applied on top)
 
 
 @dataclass
@@ -166,20 +176,17 @@ def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) ->
     area gives about the distance; the lift area is then solved within
     :data:`LIFT_RANGE`.
     """
-    from scipy.optimize import brentq
-
     n = hill.profile.cert.gates or 2
 
-    def motion(g: float) -> JumpMotion:
-        return JumpMotion(hill_geometry(hill, start_position(hill, g)), p)
+    def motion(g: float, step: float = STEP_PLAN) -> JumpMotion:
+        return JumpMotion(hill_geometry(hill, start_position(hill, g)), p, step)
 
-    if gate is None:
+    if gate is None:  # the candidates' in-runs on the planning step, the chosen one's on the truth's
         lo, hi = 1.0, float(n)
-        m_lo, m_hi = motion(lo), motion(hi)
-        if m_lo.length_for_lift(p.cla_flight) >= distance:
-            g_sel, m = lo, m_lo
-        elif m_hi.length_for_lift(p.cla_flight) <= distance:
-            g_sel, m = hi, m_hi
+        if motion(lo).length_for_lift(p.cla_flight) >= distance:
+            g_sel = lo
+        elif motion(hi).length_for_lift(p.cla_flight) <= distance:
+            g_sel = hi
         else:
             while hi - lo > 1.0:
                 mid = float(round(0.5 * (lo + hi)))
@@ -189,9 +196,10 @@ def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) ->
                     lo = mid
                 else:
                     hi = mid
-            g_sel, m = hi, motion(hi)
+            g_sel = hi
     else:
-        g_sel, m = float(gate), motion(float(gate))
+        g_sel = float(gate)
+    m = motion(g_sel, ODE_STEP)
     lengths = [m.length_for_lift(c) for c in LIFT_RANGE]
     if not lengths[0] <= distance <= lengths[1]:
         raise InputError(
@@ -199,7 +207,7 @@ def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) ->
             f"{lengths[0]:.1f} .. {lengths[1]:.1f} m with lift areas {LIFT_RANGE[0]}-{LIFT_RANGE[1]} m^2; "
             "choose another --distance or --gate"
         )
-    p.cla_flight = float(brentq(lambda c: m.length_for_lift(c) - distance, *LIFT_RANGE, xtol=1e-6))
+    p.cla_flight = float(bisect_root(lambda c: m.length_for_lift(c) - distance, *LIFT_RANGE, xtol=1e-6))
     return g_sel, m
 
 
@@ -233,6 +241,10 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     w = hill.profile.cert.w
     distance = float(cfg.distance) if cfg.distance is not None else float(w * rng.uniform(0.9, 1.04))
     gate, motion = plan_jump(hill, p, distance, cfg.gate)
+    if cfg.physics not in PHYSICS:
+        raise InputError(f"physics {cfg.physics!r}; expected one of {', '.join(PHYSICS)}")
+    if cfg.physics == "full":
+        return _full(hill, cfg, rng, p, motion, gate, distance, epoch)
     mt = motion.run()
     arm = arm_motion(mt.times, rng)
     m_ba = mounting(rng)
@@ -295,6 +307,7 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     truth_meta["jump_length"] = mt.figures["jump_length"]
     truth_meta["events"] = events
     truth_meta["skijump"] = {
+        "physics": "paper",
         "times": mt.times,
         "figures": mt.figures,
         "gate": gate,
@@ -304,12 +317,65 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
         "sensor_errors": {k: v.tolist() for k, v in errs.items()},
         "mounting_dcm": m_ba.tolist(),
         "motion": asdict(p),
-        "config": {k: v for k, v in asdict(cfg).items() if k != "outages"} | {"outages": cfg.outages},
+        "config": {k: v for k, v in asdict(cfg).items() if k not in ("outages", "realism")} | {"outages": cfg.outages},
     }
     truth = _truth_table(mt, q, w_b, acc_true, mag_true, v_o, errs)
     raw = {"epoch": epoch, "t": mt.t, "gyr": gyr, "acc": acc, "mag": mag, "t_gnss": mt.t[ig]}
     raw.update(lat=lat, lon=lon, h=h, vel=vel, sigma_pos=cfg.sigma_pos, geoid=cfg.geoid_separation)
     return SkiJump(session, session_meta, truth, truth_meta, raw)
+
+
+def full_realism(cfg: SkiJumpConfig) -> Realism:
+    """The full physics of ``cfg``: ``cfg.realism`` (or the nominal), the variants, then the GNSS options
+    that were set (``gnss_latency``, ``height_error``)."""
+    from dataclasses import replace
+
+    r = cfg.realism or Realism()
+    for name in cfg.variants:
+        if name not in VARIANTS:
+            raise InputError(f"unknown variant {name!r}; expected one of {', '.join(VARIANTS)}")
+        r = replace(r, **VARIANTS[name])
+    if cfg.gnss_latency:
+        r = replace(r, latency=float(cfg.gnss_latency))
+    if cfg.height_error is not None:
+        r = replace(r, gm_v=(float(cfg.height_error[0]), float(cfg.height_error[1])))
+    return r
+
+
+def _full(hill: Hill, cfg: SkiJumpConfig, rng, p: MotionParams, motion: JumpMotion, gate, distance, epoch) -> SkiJump:  # noqa: ANN001
+    """``physics="full"``: :func:`sportfusion.skijump.sim.full.simulate_full` and the tables' metadata."""
+    from sportfusion.skijump.sim.full import simulate_full
+
+    frame = hill.frame()
+    field_o = np.asarray(hill.mag_field() or reference_field(frame.lat, frame.lon, frame.h, epoch), dtype=float)
+    r = full_realism(cfg)
+    lever = tuple(float(v) for v in cfg.lever_arm) if any(cfg.lever_arm) else None
+    out = simulate_full(hill, cfg.seed, rng, motion, field_o, r, cfg.outages, lever, cfg.noise)  # type: ignore[arg-type]
+    times, figures = out["times"], out["figures"]
+    events = [{"name": "takeoff", "t": times["takeoff"]}, {"name": "touchdown", "t": times["touchdown"]}]
+    base = {"frame": frame.to_meta(), "hill": hill.meta()}
+    session_meta = {**sfmeta.new_meta("session", epoch), **base}
+    truth_meta = {**sfmeta.new_meta("truth", epoch), **base}
+    truth_meta["jump_length"] = figures["jump_length"]
+    truth_meta["events"] = events
+    truth_meta["skijump"] = {
+        "physics": "full",
+        "variants": list(cfg.variants),
+        "times": times,
+        "figures": figures,
+        "gate": gate,
+        "distance_target": distance,
+        "gravity": hill.gravity(),
+        "mag_field_ned": field_o.tolist(),
+        "mounting_dcm": out["mounting"].tolist(),
+        "motion": asdict(p),
+        "realism": r.describe(),
+        **out["meta"],
+        "config": {k: v for k, v in asdict(cfg).items() if k not in ("outages", "realism")}
+        | {"outages": cfg.outages, "variants": list(cfg.variants)},
+    }
+    raw = {"epoch": epoch, **out["raw"], "geoid": cfg.geoid_separation}
+    return SkiJump(out["session"], session_meta, out["truth"], truth_meta, raw)
 
 
 def _column(name: str, values: np.ndarray) -> pa.Array:
