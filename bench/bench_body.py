@@ -45,7 +45,7 @@ def _one(seed: int) -> dict:
     with tempfile.TemporaryDirectory() as d:
         dd = Path(d)
         b = f"{BIN}/"
-        _run(f"{b}simulate gates -q --seed {seed} --body --raw raw --truth truth.parquet -o /dev/null", dd)
+        _run(f"{b}simulate gates -q --seed {seed} --body --raw raw --truth truth.parquet > sim.parquet", dd)
         _run(
             f"{b}ingest -q raw | {b}body-model -q --height 1.8 --mass 78 | {b}detect-events -q --kind gates"
             f" | {b}gate-anchor -q --gates raw/survey.parquet -o run.parquet",
