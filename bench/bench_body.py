@@ -29,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-BIN = Path(sys.executable).parent
+#: the console scripts: beside this interpreter (a virtual environment), else the first on PATH
+BIN = Path(sys.executable).parent if (Path(sys.executable).parent / "gate-anchor").exists() else None
 SEEDS = {"tuning": 1100, "held-out": 1200}
 
 
@@ -44,7 +45,7 @@ def _one(seed: int) -> dict:
 
     with tempfile.TemporaryDirectory() as d:
         dd = Path(d)
-        b = f"{BIN}/"
+        b = f"{BIN}/" if BIN else ""
         _run(f"{b}simulate gates -q --seed {seed} --body --raw raw --truth truth.parquet > sim.parquet", dd)
         _run(
             f"{b}ingest -q raw | {b}body-model -q --height 1.8 --mass 78 | {b}detect-events -q --kind gates"
