@@ -18,6 +18,7 @@ mkdir -p "$O"
 "${BIN}plot" spline "$DEMO/skirace/attitude.parquet" --truth "$F/skirace/truth.parquet" -o "$O/spline.png" "${P[@]}"
 "${BIN}plot" series "$DEMO/skirace/attitude.parquet" -o "$O/series-skirace.png" "${P[@]}"
 "${BIN}plot" gates "$DEMO/gates/anchored.parquet" --gates "$F/gates/survey.parquet" -o "$O/gates.png" "${P[@]}"
+"${BIN}plot" body "$DEMO/gates_body/anchored.parquet" --gates "$F/gates_body/raw/survey.parquet" -o "$O/body.png" "${P[@]}"
 "${BIN}plot" holds "$DEMO/climbing/holds.parquet" --holds "$F/climbing/holds.parquet" \
   --truth "$F/climbing/truth.parquet" -o "$O/holds.png" "${P[@]}"
 # two simulated runs of one course (the ones tests/test_compare_runs.py uses), compared gate by gate

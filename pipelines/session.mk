@@ -9,6 +9,7 @@
 #   HILL    = shipped hill name or TOML file        (skijump)
 #   ORIGIN  = LAT,LON,H   AZIMUTH = DEG             (skirace: the local course frame)
 #   GATES   = gate survey (Parquet, kind gates)      (gates)
+#   BODY    = body-model options, e.g. --height 1.8 --mass 78 (gates with several IMUs: adds body-model)
 #   HOLDS   = hold map (Parquet, kind holds)         (climbing)
 #   TRUTH   = truth table, when the session was simulated (adds evaluation.txt)
 #   VIDEO   = landing video, MARKERS = its marker table (skijump: the video reference, Table 7)
@@ -105,12 +106,12 @@ endif
 # --------------------------------------------------------------------------- ski racing, magnet gates
 ifeq ($(SPORT),gates)
 OUT_RESULTS := $(O)/anchored.parquet
-OUT_PLOTS := $(O)/plots/course.png $(O)/plots/series.png
+OUT_PLOTS := $(O)/plots/course.png $(O)/plots/series.png $(if $(BODY),$(O)/plots/body.png)
 OUT_EVALUATION := $(if $(TRUTH),$(O)/evaluation.txt $(O)/evaluation.parquet)
 OUT_REPORT := $(O)/report.html
 
 $(O)/crossings.parquet: $(RAWFILES) $(S)/config.mk | $(O)/.dir
-	$(INGEST) | $(BIN)detect-events $(Q) --kind gates -o $@
+	$(INGEST) $(if $(BODY),| $(BIN)body-model $(Q) $(BODY)) | $(BIN)detect-events $(Q) --kind gates -o $@
 $(O)/anchored.parquet: $(O)/crossings.parquet $(S)/$(GATES)
 	$(BIN)gate-anchor $(Q) $< --gates $(S)/$(GATES) -o $@
 $(O)/evaluation.txt: $(O)/anchored.parquet $(TRUTHFILE)
@@ -121,6 +122,8 @@ $(O)/report.html: $(O)/anchored.parquet $(S)/$(GATES) $(if $(TRUTH),$(O)/evaluat
 	$(BIN)report $(Q) $< --gates $(S)/$(GATES) $(if $(TRUTH),--evaluation $(O)/evaluation.parquet) -o $@
 $(O)/plots/course.png: $(O)/anchored.parquet $(S)/$(GATES)
 	$(BIN)plot gates $(Q) $< --gates $(S)/$(GATES) -o $@
+$(O)/plots/body.png: $(O)/anchored.parquet $(S)/$(GATES)
+	$(BIN)plot body $(Q) $< --gates $(S)/$(GATES) -o $@
 $(O)/plots/series.png: $(O)/anchored.parquet
 	$(BIN)plot series $(Q) $< -o $@
 endif

@@ -132,6 +132,8 @@ _FIX = Path(__file__).resolve().parents[1] / "fixtures"
 EXTRA: dict[str, list[str]] = {
     # without --kind detect-events takes the kind from the metadata, and this bare session names none
     "detect-events": ["--kind", "grips"],
+    # the athlete's height and mass are required
+    "body-model": ["--height", "1.8", "--mass", "78"],
     # plot writes an image, so its output file is required
     "plot track": ["-o", _PNG],
     "plot speed": ["-o", _PNG],
@@ -140,6 +142,7 @@ EXTRA: dict[str, list[str]] = {
     "plot spline": ["-o", _PNG],
     "plot errors": ["-o", _PNG, "--truth", str(_FIX / "skijump" / "truth.parquet")],
     "plot gates": ["-o", _PNG, "--gates", str(_FIX / "skijump" / "truth.parquet")],
+    "plot body": ["-o", _PNG],
     "plot holds": ["-o", _PNG, "--holds", str(_FIX / "skijump" / "truth.parquet")],
     "plot compare": ["-o", str(Path(tempfile.gettempdir()) / "sportfusion-contract-compare.png")],
     # report writes an HTML page

@@ -85,6 +85,41 @@ def _gates(d: Path) -> Path:
     return _write(d / "gates.parquet", pa.table(cols), sfmeta.new_meta("session", 1.7e9))
 
 
+def _body(d: Path) -> Path:
+    """gate-anchor-with-a-body-like output: the full-body fixture's truth as the estimate (CoM, body points
+    relative to the LJC, crossings), the azimuth of body-model's frame and the turn figures in the metadata."""
+    truth, _ = sfio.read_table(FIX / "gates_body" / "truth.parquet", kind="truth")
+    survey, _ = sfio.read_table(FIX / "gates_body" / "raw" / "survey.parquet", kind="gates")
+    cols: dict[str, object] = {"t": truth.column("t")}
+    for n in ("x", "y", "z", "vx", "vy", "vz", "com_x", "com_y", "com_z", "com_vx", "com_vy", "com_vz"):
+        cols[n] = truth.column(f"true_{n}")
+    for c in truth.column_names:
+        if c.endswith(("_rel_x", "_rel_y", "_rel_z")):
+            cols[c[5:]] = truth.column(c)
+    ev = truth.column("true_event").to_pylist()
+    cols["event"] = pa.array(ev, pa.string())
+    gate = truth.column("true_gate").to_pylist()
+    cols["gate"] = pa.array([g if e == "gate" else None for e, g in zip(ev, gate, strict=True)], pa.int32())
+    # the frame J's azimuth: the true CoM relative to the LJC in J against the same vector in the course frame
+    rel = schema.float_columns(truth, ["true_com_rel_x", "true_com_rel_y"])
+    d_xy = schema.float_columns(truth, ["true_com_x", "true_com_y"]) - schema.float_columns(
+        truth, ["true_ljc_x", "true_ljc_y"]
+    )
+    alpha = np.arctan2(np.sum(rel[:, 0] * d_xy[:, 1] - rel[:, 1] * d_xy[:, 0]), np.sum(rel * d_xy))
+    t = schema.floats(truth, "t")
+    tc = [float(t[i]) for i, e in enumerate(ev) if e == "gate"]
+    g_xyz = schema.float_columns(survey, ["x", "y", "z"])
+    turns = [
+        {"gate": k + 1, "gate_xyz": g_xyz[k].tolist(), "t_cross": tc[k], "t_in": 0.5 * (tc[k - 1] + tc[k]),
+         "t_out": 0.5 * (tc[k] + tc[k + 1]), "v_in": 20.0, "v_out": 20.5, "d_in": 12.0, "d_out": 12.5,
+         "d_cross": 0.6, "length": 24.0}
+        for k in range(1, len(tc) - 1)
+    ]  # fmt: skip
+    meta = sfmeta.new_meta("session", 1.7e9)
+    meta["gate_anchor"] = {"alpha_deg": float(np.degrees(alpha)), "turns": turns}
+    return _write(d / "body.parquet", pa.table(cols), meta)
+
+
 def _climbing(d: Path) -> Path:
     truth, _ = sfio.read_table(FIX / "climbing" / "truth.parquet", kind="truth")
     est = pa.table(
@@ -113,6 +148,7 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
         "skijump": _skijump(d),
         "skirace": _skirace(d),
         "gates": _gates(d),
+        "body": _body(d),
         "climbing": _climbing(d),
         "compare": cmp,
         "profile": prof,
@@ -130,13 +166,14 @@ def kind_args(kind: str, inp: dict[str, Path]) -> list[str]:
         "mag": ["mag", sj],
         "spline": ["spline", str(inp["skirace"]), "--truth", str(FIX / "skirace" / "truth.parquet")],
         "gates": ["gates", str(inp["gates"]), "--gates", str(FIX / "gates" / "survey.parquet")],
+        "body": ["body", str(inp["body"]), "--gates", str(FIX / "gates_body" / "raw" / "survey.parquet")],
         "holds": ["holds", str(inp["climbing"]), "--holds", str(FIX / "climbing" / "holds.parquet")]
         + ["--truth", str(FIX / "climbing" / "truth.parquet")],
         "compare": ["compare", str(inp["compare"]), "--profile", str(inp["profile"])],
     }[kind]
 
 
-KINDS = ("hill", "track", "speed", "series", "errors", "mag", "spline", "gates", "holds", "compare")
+KINDS = ("hill", "track", "speed", "series", "errors", "mag", "spline", "gates", "body", "holds", "compare")
 
 
 def test_every_kind_is_a_plot_subcommand():
@@ -178,7 +215,7 @@ def figure(kind: str, inp: dict[str, Path]):
     """The figure object of a kind, drawn by the library on the same inputs as the command."""
     from sportfusion.climbing.plots import holds_figure
     from sportfusion.core.plots import errors_figure, series_figure
-    from sportfusion.gates.plots import gates_figure
+    from sportfusion.gates.plots import body_figure, gates_figure
     from sportfusion.skijump.hillfile import load_hill
     from sportfusion.skijump.plots import hill_figure, mag_figure, speed_figure, track_figure
     from sportfusion.skirace.plots import compare_figure, spline_figure
@@ -205,6 +242,9 @@ def figure(kind: str, inp: dict[str, Path]):
         return gates_figure(
             sfio.read_table(inp["gates"])[0], sfio.read_table(FIX / "gates" / "survey.parquet", kind="gates")[0]
         )
+    if kind == "body":
+        table, bmeta = sfio.read_table(inp["body"])
+        return body_figure(table, bmeta, sfio.read_table(FIX / "gates_body" / "raw" / "survey.parquet")[0])
     if kind == "holds":
         holds, hmeta = sfio.read_table(FIX / "climbing" / "holds.parquet", kind="holds")
         return holds_figure(sfio.read_table(inp["climbing"])[0], holds, hmeta)
@@ -441,3 +481,23 @@ def test_plot_speed_without_events_draws_no_zoom(inputs, tmp_path):
     table, meta = sfio.read_table(inputs["skijump"])
     fig = speed_figure(table.drop_columns(["event"]), meta)
     assert len([ax for ax in fig.axes if ax.get_xlabel() == "x [m]"]) == 1
+
+
+def test_body_postures_are_in_the_survey_frame(inputs):
+    """The stick figures hang from the CoM through body-model's frame J turned by the matching's azimuth: the
+    LJC they put at each crossing is the true LJC, the magnets are beside the skier, the ankles below the hips."""
+    from sportfusion.gates.plots import _behind, body_crossings
+
+    table, meta = sfio.read_table(inputs["body"])
+    truth, _ = sfio.read_table(FIX / "gates_body" / "truth.parquet", kind="truth")
+    survey, _ = sfio.read_table(FIX / "gates_body" / "raw" / "survey.parquet")
+    cr = body_crossings(table, meta, survey)
+    assert len(cr) == int(np.sum([e == "gate" for e in truth.column("true_event").to_pylist()]))
+    tt = schema.floats(truth, "t")
+    for c in cr:
+        i = int(np.argmin(np.abs(tt - c["t"])))
+        ljc = np.array([schema.floats(truth, f"true_ljc_{a}")[i] for a in "xyz"])
+        assert np.linalg.norm(c["points"]["ljc"] - ljc) < 0.002
+        assert 0.2 < np.linalg.norm(c["magnet"] - c["points"]["ljc"]) < 2.0  # 0.2-1.2 m beside, 0.5-1 m above
+        for side in "rl":
+            assert _behind(c, c["points"][f"ankle_{side}"])[1] < _behind(c, c["points"][f"hip_{side}"])[1] - 0.2

@@ -39,6 +39,7 @@ COMMANDS = frozenset(
         "rts-smooth",
         "jump-metrics",
         "gate-anchor",
+        "body-model",
         "compare-runs",
         "report",
     )

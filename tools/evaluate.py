@@ -122,7 +122,12 @@ def main(
     sqrt(mean(dL^2)) and the upper bound sqrt(mean((|dL| + 0.5 m)^2)).  A jumps
     table (jump-metrics) with --truth: per jump the jump length [m], take-off
     speed [m/s, km/h beside], flight time and take-off/touch-down times [s],
-    estimate, truth and error; jumps paired by take-off time (--max-event-dt)."""
+    estimate, truth and error; jumps paired by take-off time (--max-event-dt).
+    A gate-anchor output with a body (com_x.. against true_com_x..): the gates
+    paper's Table 1 (CoM position and speed, accuracy and precision, total and
+    in the local skiing frame) and Table 2 (Bland-Altman bias and 95 % limits
+    of agreement of the turn figures) beside the paper's, and the relative CoM
+    beside Fasel et al. 2017's 25.7 +- 6.7 mm."""
     tool.output = output  # the main output: -o or standard output
     if fmt == "parquet" and output in (None, "-") and _is_tty(sys.stdout):
         raise click.UsageError("standard output is a terminal; redirect it, give -o FILE or use --format text")
@@ -143,9 +148,16 @@ def main(
         _jumps_vs_truth(tool, est, est_meta, truth_path, truth_meta, fmt, output, max_event_dt)
         return
     ev = evaluate(est, est_meta, truth, truth_meta, gnss=gnss, max_event_dt=max_event_dt)
+    com = None
+    if not gnss:
+        from sportfusion.evaluate.com import evaluate_com, format_com, has_com
+
+        com = evaluate_com(est, est_meta, truth) if has_com(est, truth) else None
     if fmt == "text":
         what = "GNSS measurements" if gnss else "estimate"
         text = format_text(ev, f"{what} vs truth ({truth_path}); errors = {what} - truth")
+        if com is not None:
+            text += "\n" + format_com(com)
         tool.write_bytes(text.encode())
         return
     meta = sfmeta.new_meta("summary", (est_meta.get("time") or {}).get("epoch_utc"))
@@ -153,6 +165,8 @@ def main(
         if key in est_meta:
             meta[key] = est_meta[key]
     meta["evaluation"] = summary_meta(ev)
+    if com is not None:
+        meta["evaluation"]["com"] = com
     meta["provenance"] = list(est_meta.get("provenance", []))
     tool.output = output
     tool.write(summary_table(ev), meta)

@@ -17,7 +17,8 @@ from sportfusion.tools._cli import Tool, tool
   simulate gates --seed 1 --gates survey.parquet --truth truth.parquet \\
     | detect-events --kind gates | gate-anchor --gates survey.parquet > run.parquet
   evaluate --truth truth.parquet run.parquet > errors.parquet
-  gate-anchor --gates survey.parquet --anchors-every 3 crossings.parquet -o downhill_like.parquet""",
+  gate-anchor --gates survey.parquet --anchors-every 3 crossings.parquet -o downhill_like.parquet
+  ingest imus/ | body-model --height 1.80 --mass 78 | detect-events --kind gates | gate-anchor --gates survey.parquet""",
 )
 @click.option(
     "--gates",
@@ -157,7 +158,16 @@ def main(
     to the gate, path length). Where the gates table also surveys the spots the
     athlete stands on for the static postures (rows with point = start / finish),
     each anchors the standing sacrum (--static-height above the mark): without
-    them the track drifts where no gate anchors it, at the start and the finish."""
+    them the track drifts where no gate anchors it, at the start and the finish.
+    After body-model (several IMUs): the pelvis orientation of the body model, the
+    relative anchors from the snow plane fitted to the ski contact points over
+    +-0.4 s (eqs 2-6), turn switches where the ankles are equidistant from the
+    CoM, and the paper's output: com_x com_y com_z, com_vx com_vy com_vz with
+    std_ columns (the sensor's track + its lever arm to the lumbar joint centre
+    (body-model's pelvis_lever_m) + the relative CoM, three-point speed,
+    2nd-order Butterworth 5 Hz zero phase), the turn figures from the CoM.
+    Crossings are taken at the field peak's time between samples
+    (detect-events' gate_t_peak)."""
     table, meta = tool.read()
     survey, smeta = (None, None)
     if gates_path:

@@ -11,6 +11,7 @@ import click
 
 from sportfusion.core.errors import InputError
 from sportfusion.ingest import FORMATS, Options, combine, read_recording, time_order_totals
+from sportfusion.ingest.xsensdir import segment_recording
 from sportfusion.tools._cli import Tool, tool
 from sportfusion.tools._options import check_number, parse_pairs
 
@@ -25,7 +26,11 @@ from sportfusion.tools._options import check_number, parse_pairs
   ingest track.gpx --geoid-offset 47.9 > gnss.parquet
   ingest dataset/P01/V01/trials/T1 --hand lefthand --holds-out holds.parquet > trial.parquet
   ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet
-  ingest rover.pos imu.csv --map imu.csv:t=1,acc_x=2,acc_y=3,acc_z=4 --units imu.csv:t=ticks,acc=0.000244g --rate 400 > s.parquet""",
+  ingest rover.pos imu.csv --map imu.csv:t=1,acc_x=2,acc_y=3,acc_z=4 --units imu.csv:t=ticks,acc=0.000244g --rate 400 > s.parquet
+  ingest imus/ > body.parquet                          # Xsens exports + myIMUMappings.xml (OpenSense)
+  ingest imus/ --mapping myIMUMappings.xml -o body.parquet
+  ingest imus/ --segment 00B42279=pelvis --segment 00B4227C=femur_r ... > body.parquet
+  ingest sacrum.csv thigh.csv --map t=Time,acc_x=AX,acc_y=AY,acc_z=AZ --segment sacrum.csv=pelvis --segment thigh.csv=femur_r > s.parquet""",
 )
 @click.argument("raw", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
 @click.option(
@@ -118,6 +123,23 @@ from sportfusion.tools._options import check_number, parse_pairs
     default=None,
     help="Bouldering dataset: write the hold map (kind holds, positions [m]) to this Parquet file for pf-holds.",
 )
+@click.option(
+    "--mapping",
+    "mapping_file",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="A folder of Xsens exports (several IMUs on one athlete): OpenSim OpenSense's mapping file "
+    "(myIMUMappings.xml: trial_prefix, ExperimentalSensor name -> name_in_model); default: the one in the folder.",
+)
+@click.option(
+    "--segment",
+    "segment_pairs",
+    multiple=True,
+    metavar="ID=NAME",
+    help="Body segment of a sensor (OpenSim names: pelvis, torso, head, femur_r, femur_l, tibia_r, tibia_l, ...): "
+    "ID is an Xsens sensor id in a folder (00B42279) or an input's file name (a CSV read with --map). The pelvis "
+    "sensor keeps the plain column names, the others get <segment>__<column> (docs/table-contract.md). Repeatable.",
+)
 def main(
     tool: Tool,
     raw: tuple[Path, ...],
@@ -135,6 +157,8 @@ def main(
     hold_map: str | None,
     map_up: str,
     holds_out: str | None,
+    mapping_file: str | None,
+    segment_pairs: tuple[str, ...],
 ) -> None:
     """Read raw recordings (phyphox CSV export as ZIP or folder, Sensor Logger ZIP or
     folder, NMEA 0183, GPX 1.1, Garmin FIT and TCX, RTKLIB .pos, Xsens MT Manager text
@@ -165,6 +189,12 @@ def main(
         base=_base(base),
     )
     offs = {k: _seconds(v) for k, v in parse_pairs(offsets, "--offset").items()}
+    segs = parse_pairs(segment_pairs, "--segment")
+    file_segs = {k: v for k, v in segs.items() if any(k in (str(p), p.name) for p in raw)}
+    opts.mapping = mapping_file
+    opts.segments = {k: v for k, v in segs.items() if k not in file_segs}
+    if (mapping_file or opts.segments) and not any(p.is_dir() for p in raw):
+        raise click.UsageError("--mapping and --segment ID=NAME (a sensor id) need a folder of Xsens exports as input")
     recordings = []
     for i, p in enumerate(raw):
         own = dataclasses.replace(
@@ -173,7 +203,13 @@ def main(
             units={**units_all, **unit_sets.get(i, {})},
         )
         # a column map only makes sense for the generic CSV reader
-        recordings.append(read_recording(p, fmt or ("csvmap" if own.column_map else None), own))
+        rec = read_recording(p, fmt or ("csvmap" if own.column_map and not p.is_dir() else None), own)
+        seg = next((v for k, v in file_segs.items() if k in (str(p), p.name)), None)
+        if seg is not None:
+            rec = segment_recording(rec, seg)
+        if rec.meta.get("summary"):
+            tool.info(f"{p.name}: {rec.meta['summary']}")
+        recordings.append(rec)
     table, meta, warnings = combine(recordings, offs)
     for w in warnings:
         tool.warn(w)

@@ -114,7 +114,8 @@ def main() -> None:
     as a line coloured by speed with a zoom on the flight,
     `series` estimates against time, `errors` estimate minus truth, `mag`
     measured vs estimated magnetometer, `spline` spline vs raw GNSS, `gates`
-    an alpine course with its anchors, `holds` a climbing hand path over the
+    an alpine course with its anchors, `body` the athlete's posture at the
+    gates and the CoM path of a turn, `holds` a climbing hand path over the
     hold map, `compare` runs compared gate by gate.  Needs matplotlib (the
     `plot` extra). docs/plots.md shows each figure."""
 

@@ -1,4 +1,4 @@
-"""``plot`` subcommands for the figures of the papers: speed, series, errors, mag, spline, gates, holds.
+"""``plot`` subcommands for the figures of the papers: speed, series, errors, mag, spline, gates, body, holds.
 
 Each reads one table (stdin or INPUT), takes side inputs as options and writes one image (-o, PNG,
 SVG or PDF by suffix). The drawing lives in :mod:`sportfusion.core.plots` and
@@ -156,6 +156,55 @@ def gates_cmd(tool: Tool, gates_path: str, output: str, title: str | None, dpi: 
 
 
 @tool(
+    "plot body",
+    writes_table=False,
+    cites=("gates",),
+    example="""
+  ingest imus/ | body-model --height 1.8 --mass 78 | detect-events --kind gates \\
+    | gate-anchor --gates survey.parquet | plot body --gates survey.parquet -o body.png
+  plot body run.parquet --gate 12 -o turn12.pdf""",
+)
+@click.option(
+    "--gates",
+    "gates_path",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="Gate survey (gate, x, y, z [m]): the magnet beside every posture (default: the turn figures' gates).",
+)
+@click.option(
+    "--gate", type=int, default=None, help="Gate of the turn drawn from above (default: the middle turn) [number]."
+)
+@click.option(
+    "--max-postures",
+    default=12,
+    show_default=True,
+    type=click.IntRange(1, 60),
+    help="Postures drawn at most, evenly spread over the crossings [count].",
+)
+@image_options
+def body_cmd(
+    tool: Tool,
+    gates_path: str | None,
+    gate: int | None,
+    max_postures: int,
+    output: str,
+    title: str | None,
+    dpi: float,
+) -> None:
+    """The athlete's body at the gates (gates paper Figs 3 and 5), from gate-anchor's output of a session with
+    body-model's columns: the posture at each matched gate crossing seen from behind (joint centres, ski
+    contact points, centre of mass and the gate's magnet, right of travel and up from the lumbar joint centre
+    [m]), and one turn seen from above: the CoM path beside the sacrum's and the ski line, the turn switches
+    (equal left/right ankle distance to the CoM) and their distances to the gate."""
+    from sportfusion.gates.plots import body_figure
+
+    table, meta = tool.read()
+    gates = sfio.read_table(gates_path, kind="gates")[0] if gates_path else None
+    fig = body_figure(table, meta, gates, gate, title or "", max_postures=max_postures)
+    _write(tool, fig, output, dpi)
+
+
+@tool(
     "plot holds",
     writes_table=False,
     cites=("climbing",),
@@ -192,5 +241,6 @@ COMMANDS = {
     "mag": mag_cmd,
     "spline": spline_cmd,
     "gates": gates_cmd,
+    "body": body_cmd,
     "holds": holds_cmd,
 }

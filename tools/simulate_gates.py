@@ -18,7 +18,11 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
   simulate gates --seed 1 --truth truth.parquet --gates survey.parquet > run.parquet
   simulate gates --seed 2 --downhill --wgs84 --gates survey.parquet -o run.parquet
   simulate gates --seed 3 --gates survey.parquet | detect-events --kind gates | gate-anchor --gates survey.parquet
-  simulate gates --seed 4 --variant stray-iron --truth truth.parquet --gates survey.parquet > run.parquet""",
+  simulate gates --seed 4 --variant stray-iron --truth truth.parquet --gates survey.parquet > run.parquet
+  simulate gates --seed 4 --body --truth truth.parquet --gates survey.parquet \
+    | body-model --height 1.80 --mass 78 | detect-events --kind gates | gate-anchor --gates survey.parquet
+  simulate gates --seed 5 --body --raw run5/ --truth truth.parquet > /dev/null
+  ingest run5/ | body-model --height 1.80 --mass 78 | detect-events --kind gates | gate-anchor --gates run5/survey.parquet""",
 )
 @seed_truth_options()
 @click.option(
@@ -63,6 +67,33 @@ from sportfusion.tools._options import course_site_options, parse_floats, seed_t
     is_flag=True,
     help="Also survey the snow spots of the static postures: rows point = start / finish in --gates [flag].",
 )
+@click.option(
+    "--body",
+    is_flag=True,
+    help="A full-body skier with seven IMUs (pelvis, torso, head, thighs, shanks; sensors strapped at unknown "
+    "rotations up to 30 deg and lever arms), the calibration (still upright, three squats) before the start [flag].",
+)
+@click.option(
+    "--height", default=1.80, show_default=True, type=click.FloatRange(1.0, 2.5), help="--body: athlete's height [m]."
+)
+@click.option(
+    "--mass", default=78.0, show_default=True, type=click.FloatRange(25, 200), help="--body: athlete's mass [kg]."
+)
+@click.option(
+    "--body-rate",
+    default=100.0,
+    show_default=True,
+    type=click.FloatRange(20, 1000),
+    help="--body: sampling rate of every sensor, magnetometer included [Hz].",
+)
+@click.option(
+    "--raw",
+    "raw_dir",
+    type=click.Path(file_okay=False, writable=True),
+    default=None,
+    help="--body: also write the recording as raw files into this folder: one Xsens MT Manager export per sensor, "
+    "OpenSense's myIMUMappings.xml, athlete.txt (height, mass) and the survey (survey.parquet).",
+)
 @course_site_options("46.8345,9.2103,1600", 20.0, "2026-01-20T10:00:00Z")
 def main(
     tool: Tool,
@@ -76,6 +107,11 @@ def main(
     spurious: int | None,
     static: float,
     survey_spots: bool,
+    body: bool,
+    height: float,
+    mass: float,
+    body_rate: float,
+    raw_dir: str | None,
     site: str,
     azimuth: float,
     date: str,
@@ -97,7 +133,13 @@ def main(
     at the gate crossings) goes to --truth; the survey of the snow above each
     magnet (with survey noise) to --gates, with --survey-spots also the spots
     the athlete stands on at the start and the finish. --variant picks a
-    world the estimator does not model."""
+    world the estimator does not model. With --body: a
+    skier whose posture follows the turns (sportfusion.gates.sim_skier: Dempster's
+    segment table, independent of body-model's de Leva), seven units at
+    --body-rate (the pelvis one with the magnetometer; the others' columns
+    <segment>__acc_*), and the truth of the CoM (true_com_*, true_com_v*), of
+    the LJC and of the joint centres relative to it in body-model's frame
+    (true_<point>_rel_*)."""
     cfg = GatesConfig(
         seed=seed,
         variant=variant,
@@ -111,13 +153,39 @@ def main(
     )
     if n_gates is not None:
         cfg.n_gates = n_gates
+    if raw_dir and not body:
+        raise click.UsageError("--raw writes the seven sensors' exports: give --body")
+    if body:
+        cfg.body, cfg.height, cfg.body_mass = True, height, mass
+        cfg.imu_rate = cfg.mag_rate = body_rate
     sim = simulate_gates(cfg, survey_wgs84=wgs84)
     if truth_path:
         tool.write_side(truth_path, sim.truth, sim.truth_meta)
     if gates_path:
         tool.write_side(gates_path, sim.survey, sim.survey_meta)
+    if raw_dir:  # the seven units' exports, the mapping file, the athlete and the survey, as one folder
+        tool.write_folder(raw_dir, lambda folder: write_body_raw(sim, folder, body_rate, seed, tool, height, mass))
     tool.info(
         f"{sim.session.num_rows} rows, {sim.magnets.shape[0]} gates, "
         f"closest passes {sim.crossings['distance'].min():.2f}-{sim.crossings['distance'].max():.2f} m"
     )
     tool.write(sim.session, sim.meta)
+
+
+def write_body_raw(sim, raw_dir, rate: float, seed: int, tool: Tool, height: float, mass: float) -> None:  # noqa: ANN001
+    """The simulated recording as an Xsens export folder (sportfusion.sim.xsens_raw) with the survey, into
+    ``raw_dir`` (the output layer's temporary folder, renamed to --raw when every output is ready)."""
+    from pathlib import Path
+
+    from sportfusion.core import io as sfio
+    from sportfusion.core.magfield import reference_field
+    from sportfusion.sim.xsens_raw import write_xsens_folder
+
+    lat, lon, h = sim.meta["frame"]["origin"]
+    norm = float((reference_field(lat, lon, h, sim.meta["time"]["epoch_utc"]) ** 2).sum() ** 0.5)
+    segs = ["pelvis", "torso", "head", "femur_r", "femur_l", "tibia_r", "tibia_l"]
+    write_xsens_folder(sim.session, raw_dir, segs, rate, mag_norm=norm, seed=seed)
+    Path(raw_dir, "athlete.txt").write_text(f"height_m = {height:g}\nmass_kg = {mass:g}\n")
+    sfio.write_table(
+        sim.survey, sfmeta.add_provenance(sim.survey_meta, tool.name, tool.params), str(Path(raw_dir, "survey.parquet"))
+    )

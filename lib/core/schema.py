@@ -122,6 +122,7 @@ register("grip", BOOL, "", "hand is gripping (low-motion window)")
 register("imu_saturated", BOOL, "", "IMU sample exceeded the sensor range")
 register("gate_b_peak", F64, "1", "peak magnetic intensity at a gate crossing (normalised)")
 register("gate_distance", F64, "m", "distance to the gate magnet at the crossing")
+register("gate_t_peak", F64, "s", "time of the field peak at a gate crossing, between samples")
 register("turn", STR, "", "turn direction at a gate (L or R)")
 # other table kinds
 register("route", STR, "", "route (track) identifier")
@@ -232,10 +233,25 @@ REQUIRED: dict[str, tuple[str, ...]] = {
 KINDS = tuple(REQUIRED)
 
 
+#: Several IMUs on one athlete: the columns of the sensor on a body segment are ``<segment>__<column>``.
+SEGMENT_SEPARATOR = "__"
+
+
+def sensor_column(name: str) -> str:
+    """The per-sensor column a (possibly segment-prefixed) name stands for: ``femur_r__acc_x`` -> ``acc_x``."""
+    seg, sep, base = name.partition(SEGMENT_SEPARATOR)
+    return base if sep and seg and base else name
+
+
 def lookup(name: str) -> Column | None:
     """Return the registered column for ``name``, resolving ``std_``/``true_`` prefixes."""
     if name in COLUMNS:
         return COLUMNS[name]
+    seg, sep, base_name = name.partition(SEGMENT_SEPARATOR)
+    if sep and seg and base_name:  # a sensor on a body segment: femur_r__acc_x (docs/table-contract.md)
+        base = lookup(base_name)
+        if base is not None:
+            return Column(name, base.type, base.unit, f"{seg} sensor: {base.meaning}")
     for prefix in ("true_", "std_"):
         if name.startswith(prefix):
             base = lookup(name[len(prefix) :])
@@ -406,3 +422,34 @@ register("takeoff_speed", F64, "m/s", "estimated speed at the take-off")
 register("flight_time", F64, "s", "touch-down minus take-off time")
 _xyz("touchdown", "m", "estimated sensor position at the touch-down, hill frame")
 register("max_height", F64, "m", "largest vertical height of the sensor above the landing profile in flight")
+
+# several IMUs on one athlete (body-model; docs/table-contract.md "Several IMUs"), frame J relative to the LJC
+for _seg in ("pelvis", "torso", "head", "femur_r", "femur_l", "tibia_r", "tibia_l"):
+    for _i in range(4):
+        register(
+            f"{_seg}__q{_i}",
+            F64,
+            "1",
+            f"{_seg} segment orientation, q mapping the body frame J into it, component {_i}",
+        )
+for _p, _m in (
+    ("com", "whole-body centre of mass"),
+    ("hip_r", "right hip joint centre"),
+    ("hip_l", "left hip joint centre"),
+    ("knee_r", "right knee joint centre"),
+    ("knee_l", "left knee joint centre"),
+    ("ankle_r", "right ankle joint centre"),
+    ("ankle_l", "left ankle joint centre"),
+    ("sternum", "suprasternale (top of the sternum, cervical joint centre)"),
+    ("head", "head centre of mass"),
+    ("ski_r", "right ski-snow contact point (0.15 m distal of the ankle along the shank)"),
+    ("ski_l", "left ski-snow contact point (0.15 m distal of the ankle along the shank)"),
+    ("ljc", "lumbar joint centre"),
+):
+    _xyz(f"{_p}_rel", "m", f"{_m} relative to the lumbar joint centre, body frame J")
+for _j in ("hip_r", "hip_l", "knee_r", "knee_l"):
+    register(f"{_j}_flexion", F64, "rad", f"{_j.replace('_', ' ')} flexion angle (body model)")
+_xyz("com", "m", "centre of mass in the local frame")
+_xyz("ljc", "m", "lumbar joint centre in the local frame")
+for _a in "xyz":
+    register(f"com_v{_a}", F64, "m/s", f"centre-of-mass velocity in the local frame, {_a} axis")

@@ -323,7 +323,9 @@ RAW_NAMES = frozenset({"t", "lat", "lon", "h", "h_msl", "pressure", "gnss_hdop",
 
 
 def is_raw(name: str) -> bool:
-    """Whether ``name`` is a measured sensor column (see :data:`RAW_PREFIXES`)."""
+    """Whether ``name`` is a measured sensor column (see :data:`RAW_PREFIXES`; a segment's sensor
+    ``femur_r__acc_x`` counts as its ``acc_x``)."""
+    name = schema.sensor_column(name)
     return (
         name in RAW_NAMES
         or name.startswith(RAW_PREFIXES)
@@ -408,7 +410,8 @@ def drop_impossible(table: pa.Table) -> tuple[pa.Table, dict[str, int]]:
         if name in _POSSIBLE_RANGE:
             lo, hi = _POSSIBLE_RANGE[name]
         else:
-            bound = next((v for k, v in POSSIBLE.items() if name.startswith(k)), None)
+            base = schema.sensor_column(name)
+            bound = next((v for k, v in POSSIBLE.items() if base.startswith(k)), None)
             if bound is None:
                 continue
             lo, hi = -bound, bound

@@ -16,7 +16,7 @@
   passed at 0.2-1.2 m and 5-30 m/s gives a bump of 0.01-0.4 s; slow swings of
   a disturbed field are wider), at least ``min_separation`` seconds from a
   higher one; its height is refined with a
-  parabola through the logarithm of the excess (:func:`refine_peak`), which
+  parabola through the logarithm of the excess (:func:`peak_vertex`), which
   recovers most of what the 125 Hz sampling misses.
 * With the three gyro axes the field is also carried into a frame fixed to the ground (the gyro
   integrated; over the few seconds of the background window its drift is a fraction of a degree) and
@@ -52,7 +52,7 @@ from sportfusion.gates.magnet import (
     MagnetCalibration,
     default_calibration,
     fit_calibration,
-    refine_peak,
+    peak_vertex,
     self_calibrated_norm,
 )
 
@@ -108,6 +108,7 @@ class Crossing:
     distance: float
     turn: str
     gyr_z: float
+    t_peak: float = float("nan")  # the |B| peak between samples [s] (:func:`sportfusion.gates.magnet.peak_vertex`)
 
 
 @dataclass
@@ -284,8 +285,9 @@ def detect_gates(
         # an anomaly peak is a crossing of its own where no intensity peak is near (a dip of |B|)
         extra = [int(k) for k in extra if peaks.size == 0 or np.min(np.abs(peaks - k)) >= sep]
         peaks = np.sort(np.concatenate([peaks, np.asarray(extra, dtype=peaks.dtype)]))
+    dt = 1.0 / rate
     for k in peaks:
-        bp = refine_peak(b, int(k))
+        dk, bp = peak_vertex(b, int(k))
         if anom is not None and bp - 1.0 < 0.5 * anom[k]:  # a dip or a weak bump: the anomaly's size instead
             bp = 1.0 + float(anom[k])
         # the gyro samples within turn_window of the peak: found by bisection in the sorted times (a scan
@@ -301,6 +303,7 @@ def detect_gates(
                 distance=float(cal.distance(bp)),
                 turn="R" if wz > 0 else "L",
                 gyr_z=wz,
+                t_peak=float(t_mag[k] + dk * dt),
             )
         )
     return det
@@ -365,7 +368,8 @@ def detect_gate_table(
 
 def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     """Columns ``event`` (``gate`` at each crossing's row, other events kept), ``gate_b_peak``,
-    ``gate_distance``, ``turn`` (null except at crossing rows)."""
+    ``gate_distance``, ``gate_t_peak`` (the peak's time between samples), ``turn`` (null except at crossing
+    rows)."""
     from sportfusion.core.events import set_events
 
     out = set_events(table, [("gate", c.t) for c in det.crossings], replace=GATE_EVENTS)
@@ -373,6 +377,7 @@ def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
     n = t.size
     bp = np.full(n, np.nan)
     dist = np.full(n, np.nan)
+    tp = np.full(n, np.nan)
     turn = np.full(n, None, dtype=object)
     at = np.zeros(n, dtype=bool)
     for c in det.crossings:
@@ -381,23 +386,27 @@ def gate_columns(table: pa.Table, det: GateDetection) -> dict[str, pa.Array]:
         if i > 0 and abs(t[i - 1] - c.t) <= abs(t[i] - c.t):
             i -= 1
         at[i] = True
-        bp[i], dist[i], turn[i] = c.b_peak, c.distance, c.turn
+        bp[i], dist[i], turn[i], tp[i] = c.b_peak, c.distance, c.turn, c.t_peak
     return {
         "event": out.column("event").combine_chunks(),
         "gate_b_peak": pa.array(bp, pa.float64(), mask=~at),
         "gate_distance": pa.array(dist, pa.float64(), mask=~(at & np.isfinite(dist))),
+        "gate_t_peak": pa.array(tp, pa.float64(), mask=~(at & np.isfinite(tp))),
         "turn": turn,
     }
 
 
 def read_crossings(table: pa.Table) -> dict[str, np.ndarray]:
-    """The crossings written by :func:`gate_columns`: ``t`` [s], ``distance`` [m], ``turn`` (+1 R, -1 L),
-    ``row`` (row index)."""
+    """The crossings written by :func:`gate_columns`: ``t`` [s] (the peak's time between samples where the
+    session has it, else the row's), ``distance`` [m], ``turn`` (+1 R, -1 L), ``row`` (row index)."""
     if "event" not in table.column_names:
         return {"t": np.zeros(0), "distance": np.zeros(0), "turn": np.zeros(0), "row": np.zeros(0, int)}
     ev = np.array(table.column("event").to_pylist(), dtype=object)
     rows = np.flatnonzero(ev == "gate")
     t = schema.floats(table, "t")[rows]
+    if "gate_t_peak" in table.column_names:
+        tp = schema.floats(table, "gate_t_peak")[rows]
+        t = np.where(np.isfinite(tp) & (np.abs(tp - t) < 0.1), tp, t)
     dist = (
         schema.floats(table, "gate_distance")[rows]
         if "gate_distance" in table.column_names

@@ -55,26 +55,31 @@ def dipole_field(rel: np.ndarray, moment: np.ndarray) -> np.ndarray:
     return MU0_4PI * (3.0 * mu * u - m) / r**3 * 1e6
 
 
-def refine_peak(b: np.ndarray, k: int) -> float:
-    """Peak of the normalised intensity near sample ``k``: a parabola through ``log(b - 1)`` at k-1, k, k+1.
+def peak_vertex(b: np.ndarray, k: int) -> tuple[float, float]:
+    """Sub-sample peak of the normalised intensity near sample ``k``: a parabola through ``log(b - 1)`` at k-1,
+    k, k+1; returns (offset from ``k`` [samples], within +-0.5; peak value).  ``(0, b[k])`` when a neighbour is
+    missing or not above 1.
 
-    At 125 Hz and 20 m/s the sensor moves 0.16 m per sample and the sampled
-    maximum underestimates the peak (the paper's own limitation); the parabola
-    on the logarithm of the excess recovers most of it.  Returns ``b[k]`` when
-    a neighbour is missing or not above 1.
-    """
+    At 125 Hz and 20 m/s the sensor moves 0.16 m per sample: the sampled maximum underestimates the peak (the
+    paper's own limitation) and its time is up to half a sample off (+-0.08 m along the track); the parabola
+    on the logarithm of the excess recovers most of both (the excess falls off as a power of the distance, its
+    logarithm is near a parabola around the peak)."""
     if k <= 0 or k >= b.size - 1:
-        return float(b[k])
+        return 0.0, float(b[k])
     e = b[k - 1 : k + 2] - 1.0
     if not (e > 0).all() or not np.isfinite(e).all():
-        return float(b[k])
+        return 0.0, float(b[k])
     y0, y1, y2 = np.log(e)
     den = y0 - 2 * y1 + y2
     if den >= 0:
-        return float(b[k])
-    d = 0.5 * (y0 - y2) / den
-    d = float(np.clip(d, -0.5, 0.5))
-    return float(1.0 + np.exp(y1 - 0.25 * (y0 - y2) * d))
+        return 0.0, float(b[k])
+    d = float(np.clip(0.5 * (y0 - y2) / den, -0.5, 0.5))
+    return d, float(1.0 + np.exp(y1 - 0.25 * (y0 - y2) * d))
+
+
+def refine_peak(b: np.ndarray, k: int) -> float:
+    """Peak of the normalised intensity near sample ``k`` (:func:`peak_vertex`'s value)."""
+    return peak_vertex(b, k)[1]
 
 
 @dataclass(frozen=True)

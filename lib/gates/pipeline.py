@@ -22,11 +22,12 @@
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
 columns, the matched gate per crossing and the per-turn figures of the paper (Table 2): entrance and exit
 speed at the turn switches, distances from the switches and at the crossing to the gate, path length of
-the turn.  The paper adds a body model to get the CoM; with one sacrum sensor we output the sacrum
-(the paper's LJC, ``p_sacr = p_ljc``).
+the turn.  With one sacrum sensor we output the sacrum (the paper's LJC, ``p_sacr = p_ljc``); on a session
+with the columns of ``body-model`` also the paper's output, the absolute CoM, with the peak model's snow
+plane from the ski contact points and the turn figures from the CoM (:mod:`sportfusion.gates.com`).
 
-Turn switches: the paper uses equal left/right ankle distances to the CoM (a full-body criterion); with the
-sacrum alone a switch is the sign change of the course rate (the turning of the horizontal velocity)
+Turn switches: the paper uses equal left/right ankle distances to the CoM (a full-body criterion, used with a
+body); with the sacrum alone a switch is the sign change of the course rate (the turning of the horizontal velocity)
 between two consecutive crossings, the one nearest the middle of the interval.
 """
 
@@ -50,9 +51,22 @@ from sportfusion.gates.anchors import (
     snow_normals,
     survey_sides,
 )
+from sportfusion.gates.com import (
+    SIGMA_REL_COM,
+    SIGMA_REL_VCOM,
+    Body,
+    absolute_com,
+    ankle_switch_signal,
+    body_anchors,
+    has_body,
+    read_body,
+    snow_planes,
+    turn_sides,
+)
 from sportfusion.gates.eks import Anchor, EKSParams, decimate, run_eks
 from sportfusion.gates.inertial import global_acceleration, static_gravity, static_windows, strapdown
 from sportfusion.gates.passfit import PassFit, PassFitParams, fit_crossings
+from sportfusion.gates.turns import turn_figures
 
 
 @dataclass(frozen=True)
@@ -137,10 +151,43 @@ class GateAnchorResult:
     turns: list[dict[str, Any]]
     passes: dict[str, Any]
     fits: list[PassFit] | None = None  # the pass fit of each crossing (with a magnetometer)
+    com: np.ndarray | None = None  # absolute CoM (N, 3) [m], with a body
+    vcom: np.ndarray | None = None  # its velocity (N, 3) [m/s]
 
 
 def _interp(tg: np.ndarray, x: np.ndarray, tq: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(tq, tg, x[:, j]) for j in range(x.shape[1])], axis=-1)
+
+
+def _body_peak_offsets(
+    tg: np.ndarray,
+    track: np.ndarray,
+    vel: np.ndarray,
+    cross: dict[str, np.ndarray],
+    normal: np.ndarray | None,
+    p: GateAnchorParams,
+    body: Body | None,
+) -> np.ndarray | None:
+    """The peak model's sensor -> magnet offsets (M, 3) with a body (eqs 2-6, :mod:`sportfusion.gates.com`):
+    the snow plane fitted to the ski contact points (``normal`` replaces its normal where given and finite);
+    None without a body (then :func:`relative_anchors` with the sacrum height)."""
+    if body is None:
+        return None
+    pc = _interp(tg, track, cross["t"])
+    vc = _interp(tg, vel, cross["t"])
+    n, pts = snow_planes(tg, track, body, cross["t"])
+    if normal is not None:
+        have = np.isfinite(normal).all(axis=1)
+        n[have] = normal[have]
+    out = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], None, p.burial)
+    ok = np.isfinite(pts).all(axis=1)
+    if ok.any() and p.projection == "normal":
+        out[ok] = relative_anchors(
+            pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], cross["height"][ok], n[ok], p.burial, pts[ok]
+        )
+    elif ok.any():
+        out[ok] = body_anchors(pc[ok], vc[ok], cross["distance"][ok], cross["side"][ok], n[ok], pts[ok], p.burial)
+    return out - pc
 
 
 def _anchor_updates(
@@ -156,6 +203,7 @@ def _anchor_updates(
     p: GateAnchorParams,
     fits: list[PassFit] | None = None,
     final: bool = False,
+    body: Body | None = None,
 ) -> tuple[list[Anchor], np.ndarray]:
     """Anchor updates in the inertial frame: surveyed point (through alpha, offset) minus the sensor -> surveyed
     point offset (a pass fit's where there is one, else the peak model's).  In the ``final`` iteration a
@@ -164,7 +212,8 @@ def _anchor_updates(
     vc = _interp(tg, vel, cross["t"])
     normal_s, _ = snow_normals(survey, ids)
     normal_j = rotate_z(normal_s, -alpha) if p.projection == "normal" else None
-    rel = _survey_offsets(pc, vc, cross, normal_j, p, fits)
+    peak = _body_peak_offsets(tg, track, vel, cross, normal_j, p, body)
+    rel = _survey_offsets(pc, vc, cross, normal_j, p, fits, peak)
     used = (ids >= 0) & (np.maximum(ids, 0) % p.anchors_every == 0)
     out = []
     for m in np.flatnonzero(used):
@@ -190,10 +239,15 @@ def _survey_offsets(
     normal: np.ndarray | None,
     p: GateAnchorParams,
     fits: list[PassFit] | None,
+    peak: np.ndarray | None = None,
 ) -> np.ndarray:
     """Offset (M, 3) from the sensor at each crossing to the magnet's surveyed point, inertial frame (z down):
-    the pass fit's magnet centre where it succeeded, else the peak model's (eqs 2-6), raised by ``survey_depth``."""
-    rel = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial) - pc
+    the pass fit's magnet centre where it succeeded, else the peak model's (eqs 2-6; ``peak`` when given, a
+    body's), raised by ``survey_depth``."""
+    if peak is not None:
+        rel = np.array(peak, float)
+    else:
+        rel = relative_anchors(pc, vc, cross["distance"], cross["side"], cross["height"], normal, p.burial) - pc
     if fits is not None:
         for m, f in enumerate(fits):
             if f.ok:
@@ -233,77 +287,12 @@ def _detected_anchors(
     normal: np.ndarray | None,
     p: GateAnchorParams,
     fits: list[PassFit] | None = None,
+    body: Body | None = None,
 ) -> np.ndarray:
     pc = _interp(tg, track, cross["t"])
     vc = _interp(tg, vel, cross["t"])
-    return pc + _survey_offsets(pc, vc, cross, normal, p, fits)
-
-
-def turn_figures(
-    tg: np.ndarray,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    acc: np.ndarray,
-    cross_t: np.ndarray,
-    ids: np.ndarray,
-    survey: np.ndarray,
-    gate_numbers: np.ndarray,
-) -> list[dict[str, Any]]:
-    """Per-turn figures (paper Table 2) for every matched crossing with a crossing before and after it.
-
-    A turn runs from the switch before its gate to the switch after it; a switch is the sign change of the
-    course rate ``(vx ay - vy ax) / (vx^2 + vy^2)`` between two consecutive crossings nearest the middle of
-    the interval.  Returns dicts with ``gate``, ``t_in``, ``t_out`` [s], ``v_in``, ``v_out`` [m/s] (speed
-    at the switches), ``d_in``, ``d_out`` (3-D distance from the sacrum at the switches to the gate's
-    magnet), ``d_cross`` (at the crossing) and ``length`` (3-D path length from switch to switch) [m].
-    """
-    rate = (vel[:, 0] * acc[:, 1] - vel[:, 1] * acc[:, 0]) / np.maximum(vel[:, 0] ** 2 + vel[:, 1] ** 2, 1.0)
-    order = np.argsort(cross_t)
-    ct = cross_t[order]
-
-    def switch(a: float, b: float) -> float | None:
-        w = np.flatnonzero((tg > a) & (tg < b))
-        if w.size < 3:
-            return None
-        s = np.sign(rate[w])
-        ch = np.flatnonzero(s[1:] != s[:-1])
-        if ch.size == 0:
-            return None
-        mid = 0.5 * (a + b)
-        j = ch[np.argmin(np.abs(tg[w[ch]] - mid))]
-        i0, i1 = w[j], w[j + 1]
-        r0, r1 = rate[i0], rate[i1]
-        f = r0 / (r0 - r1) if r0 != r1 else 0.5
-        return float(tg[i0] + f * (tg[i1] - tg[i0]))
-
-    out = []
-    for j in range(1, ct.size - 1):
-        m = order[j]
-        if ids[m] < 0:
-            continue
-        t_in, t_out = switch(ct[j - 1], ct[j]), switch(ct[j], ct[j + 1])
-        if t_in is None or t_out is None:
-            continue
-        g = survey[ids[m]]
-        pi, po, pc = (_interp(tg, pos, np.array([x]))[0] for x in (t_in, t_out, ct[j]))
-        vi, vo = (np.linalg.norm(_interp(tg, vel, np.array([x]))[0]) for x in (t_in, t_out))
-        seg = (tg > t_in) & (tg < t_out)
-        path = np.vstack([pi, pos[seg], po])
-        out.append(
-            {
-                "gate": int(gate_numbers[ids[m]]),
-                "t_cross": float(ct[j]),
-                "t_in": t_in,
-                "t_out": t_out,
-                "v_in": float(vi),
-                "v_out": float(vo),
-                "d_in": float(np.linalg.norm(pi - g)),
-                "d_out": float(np.linalg.norm(po - g)),
-                "d_cross": float(np.linalg.norm(pc - g)),
-                "length": float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1))),
-            }
-        )
-    return out
+    peak = _body_peak_offsets(tg, track, vel, cross, normal, p, body)
+    return pc + _survey_offsets(pc, vc, cross, normal, p, fits, peak)
 
 
 def gate_anchor_arrays(
@@ -321,6 +310,8 @@ def gate_anchor_arrays(
     params: GateAnchorParams | None = None,
     spots: dict[str, np.ndarray] | None = None,
     mag: tuple[np.ndarray, np.ndarray] | None = None,
+    body: Body | None = None,
+    still: list[tuple[float, float]] | None = None,
 ) -> GateAnchorResult:
     """The gate-anchor pipeline on arrays (see the module text).
 
@@ -349,6 +340,12 @@ def gate_anchor_arrays(
     mag : tuple, optional
         Magnetometer times [s] (k,) and field (k, 3), body frame [uT or normalised]: each crossing's offset to
         its magnet then comes from a fit of the whole pass (:func:`fit_crossings`) instead of the peak model.
+    body : Body, optional
+        The body model's columns (:mod:`sportfusion.gates.com`): the peak model's snow plane from the ski
+        contact points, turn switches from the ankles, the absolute CoM; ``q_bj`` is then the body model's
+        pelvis sensor attitude.
+    still : list of (float, float), optional
+        Further still periods [s] (zero-velocity updates), e.g. the body model's.
 
     Returns
     -------
@@ -379,17 +376,17 @@ def gate_anchor_arrays(
         "finish": (float(t[static.finish[0]]), float(t[static.finish[1] - 1])),
     }
     zupt = np.zeros(tg.size, bool)
-    for a, b in windows.values():
+    for a, b in list(windows.values()) + list(still or []):
         zupt |= (tg >= a) & (tg <= b)
     # EKS 1: inertial only
     r1 = run_eks(tg, ag, g, zupt, None, p.eks, rot_rate=wg)
     p1, v1 = r1.x_smooth[:, 0:3], r1.x_smooth[:, 3:6]
     fits = None
     if mag is not None:
-        guess = _detected_anchors(tg, p1, v1, cross, None, p) - _interp(tg, p1, cross["t"])
+        guess = _detected_anchors(tg, p1, v1, cross, None, p, None, body) - _interp(tg, p1, cross["t"])
         guess[:, 2] += p.survey_depth
         fits = fit_crossings(t, q, mag[0], mag[1], tg, v1, r1.x_smooth[:, 6:9], cross, guess, p.fit)
-    det1 = _detected_anchors(tg, p1, v1, cross, None, p, fits)
+    det1 = _detected_anchors(tg, p1, v1, cross, None, p, fits, body)
     m1 = match_anchors(cross["t"], det1, cross["side"], survey, survey_side, p.match)
     ssd = survey_sides(survey) if survey_side is None else np.asarray(survey_side, float)
     ids, alpha, offset = align_with_azimuth(cross["t"], det1, cross["side"], survey, ssd, m1.alpha, p.align)
@@ -403,13 +400,13 @@ def gate_anchor_arrays(
     track, vel = p1, v1
     normal_s, _ = snow_normals(survey, ids)
     for _ in range(3):
-        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, fits)
+        an1, _ = _anchor_updates(tg, track, vel, cross, ids, survey, alpha, offset, p.sigma_first, p, fits, body=body)
         an1 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
         r2 = run_eks(tg, ag, g, zupt, an1, p.eks, rot_rate=wg)
         track, vel = r2.x_smooth[:, 0:3] + r2.x_smooth[:, 9:12], r2.x_smooth[:, 3:6]
         normal_s, _ = snow_normals(survey, ids)
         det2 = _detected_anchors(
-            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, fits
+            tg, track, vel, cross, rotate_z(normal_s, -alpha) if p.projection == "normal" else None, p, fits, body
         )
         ids2 = align_crossings(cross["t"], rotate_z(det2, alpha) + offset, cross["side"], survey, ssd, p.align)
         grew = (ids2 >= 0).sum() > (ids >= 0).sum() + 1
@@ -422,7 +419,7 @@ def gate_anchor_arrays(
         guess = np.array([f.rel if f.ok else g for f, g in zip(fits, guess, strict=True)])
         fits = fit_crossings(t, q, mag[0], mag[1], tg, v2, r2.x_smooth[:, 6:9], cross, guess, p.fit)
     # EKS 2, second iteration (anchor sigma 0.1 m; a pass fit's covariance)
-    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, fits, True)
+    an2, used = _anchor_updates(tg, track2, v2, cross, ids, survey, alpha, offset, p.sigma_second, p, fits, True, body)
     an2 += _spot_anchors(tg, windows, spots, survey, alpha, offset, p)
     r3 = run_eks(tg, ag, g, zupt, an2, p.eks, rot_rate=wg)
     xs, Ps = r3.x_smooth, r3.P_smooth
@@ -435,7 +432,13 @@ def gate_anchor_arrays(
     pos = rotate_z(pos_j, alpha) + offset
     vel = rotate_z(xs[:, 3:6], alpha)
     accs = rotate_z(xs[:, 6:9], alpha)
-    turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
+    com = vcom = None
+    if body is not None:  # the paper's output: the CoM, and the turn figures from it
+        com, vcom = absolute_com(tg, pos, alpha, body)
+        sig = ankle_switch_signal(tg, body)
+        turns = turn_figures(tg, com, vcom, accs, cross["t"], ids, survey, gate_numbers, signal=sig)
+    else:
+        turns = turn_figures(tg, pos, vel, accs, cross["t"], ids, survey, gate_numbers)
     passes = {
         "rate_hz": p.rate,
         "matched_first": int((ids_first >= 0).sum()),
@@ -463,6 +466,8 @@ def gate_anchor_arrays(
         turns=turns,
         passes=passes,
         fits=fits,
+        com=com,
+        vcom=vcom,
     )
 
 
@@ -548,7 +553,16 @@ def gate_anchor_table(
     if imu.sum() < 100:
         raise InputError(f"{int(imu.sum())} rows with acc_* and gyr_*; expected an IMU recording")
     q = None
-    if all(f"q{i}" in table.column_names for i in range(4)):
+    body = None
+    still: list[tuple[float, float]] = []
+    if has_body(table.column_names):
+        body = read_body(table, meta, np.flatnonzero(imu))
+        q = body.q_sensor
+        if not np.isfinite(q).all():
+            raise InputError("the body model's pelvis orientation has gaps on the IMU rows; rerun body-model")
+        still = [(float(a), float(b)) for a, b in (meta.get("body_model") or {}).get("still_periods_s", [])]
+        cr["turn"] = turn_sides(body, cr["t"])
+    elif all(f"q{i}" in table.column_names for i in range(4)):
         qn = schema.float_columns(table, [f"q{i}" for i in range(4)])[imu]
         if np.isfinite(qn).all():
             az = np.deg2rad(frame.azimuth_deg if frame is not None else 0.0)
@@ -565,7 +579,7 @@ def gate_anchor_table(
 
     try:
         res = gate_anchor_arrays(
-            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, mag
+            t[imu], acc[imu], gyr[imu], g, cr["t"], dist, cr["turn"], xyz, sides, numbers, q, p, spots, mag, body, still
         )
     except CovarianceError as exc:
         raise InputError(f"the smoother failed: {exc}") from exc
@@ -575,6 +589,12 @@ def gate_anchor_table(
         cols[f"v{a}"] = np.interp(t, res.t, res.vel[:, i])
         cols[f"std_{a}"] = np.interp(t, res.t, res.std_pos[:, i])
         cols[f"std_v{a}"] = np.interp(t, res.t, res.std_vel[:, i])
+    if res.com is not None and res.vcom is not None:
+        for i, a in enumerate("xyz"):
+            cols[f"com_{a}"] = np.interp(t, res.t, res.com[:, i])
+            cols[f"com_v{a}"] = np.interp(t, res.t, res.vcom[:, i])
+            cols[f"std_com_{a}"] = np.sqrt(cols[f"std_{a}"] ** 2 + SIGMA_REL_COM**2)
+            cols[f"std_com_v{a}"] = np.sqrt(cols[f"std_v{a}"] ** 2 + SIGMA_REL_VCOM**2)
     n = t.size
     gate: list[int | None] = [None] * n
     used: list[bool | None] = [None] * n
@@ -608,7 +628,15 @@ def gate_anchor_table(
         meta["frame"] = frame.to_meta()
     meta["gate_anchor"] = {
         "method": "gates paper Figure 2 (sacrum): strap-down, EKS 1, relative anchors, matching, EKS 2 (1 m, 0.1 m)",
-        "attitude": "session q0..q3" if q is not None else "strap-down with drift correction",
+        "attitude": "body model (pelvis)"
+        if body is not None
+        else "session q0..q3"
+        if q is not None
+        else "strap-down with drift correction",
+        "com": "the sensor's track + its lever arm to the LJC + body model's relative CoM, three-point speed, "
+        "Butterworth 2nd order 5 Hz zero phase; turn figures from the CoM, switches from the ankles"
+        if body is not None
+        else None,
         "anchors": "pass fit (bar magnet) where it converged, else the peak model"
         if res.fits is not None
         else "peak model (eqs 1-6)",

@@ -179,6 +179,11 @@ class GatesConfig:
     magnets: MagnetSpec = field(default_factory=MagnetSpec)
     stray: StraySpec = field(default_factory=StraySpec)
     unit: UnitSpec = field(default_factory=UnitSpec)
+    # a full-body skier with seven IMUs (sportfusion.gates.sim_skier; simulate gates --body)
+    body: bool = False
+    height: float = 1.80  # athlete's height [m]
+    body_mass: float = 78.0  # athlete's mass without equipment [kg]
+    max_misalignment: float = 30.0  # sensor strap rotation, at most [deg]
 
     def __post_init__(self) -> None:
         if self.variant not in VARIANTS:
@@ -220,6 +225,7 @@ class GatesSim:
     crossings: dict = field(repr=False)  # truth per gate: t, distance (to the magnet's centre), turn, fine index
     magnet_centres: np.ndarray = field(default=None, repr=False)  # (N, 3) centre of each magnet [m]
     scene: MagneticScene | None = field(default=None, repr=False)
+    body: dict | None = field(default=None, repr=False)  # the skier (--body): sportfusion.gates.sim_skier
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -545,6 +551,11 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     lat0, lon0, h0 = cfg.site
     g = normal_gravity(lat0, h0)
     tru = _truth(cfg, rng_body, g)
+    body = None
+    if cfg.body:  # the skier's posture and seven sensors (sportfusion.gates.sim_skier), calibration first
+        from sportfusion.gates.sim_skier import attach_body
+
+        tru, body = attach_body(tru, cfg, FINE_DT)
     c, ter = tru["course"], tru["terrain"]
     tf = tru["t"]
     gx, gy = c["gx"], c["gy"]
@@ -594,7 +605,13 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
         },
     )
     magn = Stream("magnetometer", tm, {"mag_x": mag[:, 0], "mag_y": mag[:, 1], "mag_z": mag[:, 2]})
-    session, _ = merge_streams([imu, magn])
+    streams = [imu, magn]
+    if body is not None:
+        from sportfusion.gates.sim_skier import body_streams
+
+        rng_skin = np.random.default_rng(np.random.SeedSequence(cfg.seed).spawn(5)[4])  # the six other units
+        streams += body_streams(body, ti, cfg, rng_skin, g, body_rates, at(tru["speed"], ti), tru["t_run"])
+    session, _ = merge_streams(streams)
     frame = {
         "name": "course",
         "origin": [float(lat0), float(lon0), float(h0)],
@@ -630,6 +647,10 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
     cols["true_gate"] = pa.array(gid, pa.int32())
     cols["true_gate_distance"] = pa.array(gdist, pa.float64())
     cols["true_turn"] = pa.array(gturn, pa.string())
+    if body is not None:
+        from sportfusion.gates.sim_skier import body_truth_columns
+
+        cols.update(body_truth_columns(body, ts))
     truth = pa.table(cols)
     truth_meta = sfmeta.new_meta("truth", cfg.date)
     truth_meta["frame"] = dict(frame)
@@ -663,4 +684,4 @@ def simulate_gates(cfg: GatesConfig | None = None, survey_wgs84: bool = False) -
         + (", static start and finish spots" if cfg.survey_spots else ""),
         "coordinates": "WGS84" if survey_wgs84 else "course frame",
     }
-    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, snow_g, cross, centres, scene)
+    return GatesSim(session, truth, survey, meta, truth_meta, survey_meta, tru, snow_g, cross, centres, scene, body)

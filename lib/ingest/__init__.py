@@ -37,7 +37,20 @@ from sportfusion.core.outputs import printable
 from sportfusion.core.session import Stream, merge_streams
 
 #: Formats in sniffing order (most specific first); each is a module of this package.
-FORMATS = ("session", "bouldering", "phyphox", "sensorlogger", "rtklib", "xsens", "fit", "tcx", "nmea", "gpx", "csvmap")
+FORMATS = (
+    "session",
+    "bouldering",
+    "xsensdir",
+    "phyphox",
+    "sensorlogger",
+    "rtklib",
+    "xsens",
+    "fit",
+    "tcx",
+    "nmea",
+    "gpx",
+    "csvmap",
+)
 
 
 @dataclass
@@ -69,6 +82,11 @@ class Options:
     rate : float or None
         Sampling rate [Hz] of an input whose file does not state one: Xsens exports
         timed by PacketCounter, generic CSVs whose time column counts ticks.
+    mapping : str or None
+        A folder of Xsens exports (several IMUs): the OpenSense mapping file (``myIMUMappings.xml``)
+        naming each sensor's segment; default: the one in the folder.
+    segments : dict
+        A folder of Xsens exports: sensor id (or file name) -> segment name, instead of a mapping file.
     base : (lat [deg], lon [deg], h [m]) or None
         RTKLIB e/n/u-baseline solutions: the base station's WGS84 position (ellipsoidal height);
         default: the solution header's ``ref pos`` line.
@@ -84,6 +102,8 @@ class Options:
     hold_map: str | None = None
     map_up: str = "z"
     rate: float | None = None
+    mapping: str | None = None
+    segments: dict[str, str] = field(default_factory=dict)
     base: tuple[float, float, float] | None = None
 
 
@@ -127,7 +147,7 @@ def detect_format(path: Path) -> str:
             return fmt
     raise InputError(
         f"{path}: format not recognised; expected phyphox or Sensor Logger (ZIP/folder), NMEA, GPX, FIT, TCX, "
-        "RTKLIB .pos, Xsens export, a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
+        "RTKLIB .pos, Xsens export (or a folder of them with a mapping), a bouldering trial folder, a session Parquet, or a CSV with --map (or give --format)"
     )
 
 

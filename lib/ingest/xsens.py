@@ -95,6 +95,13 @@ def _unwrap(v: np.ndarray, bits: int) -> np.ndarray:
     return v + wraps * float(2**bits)
 
 
+#: Wrap period [s] of each counter, from the times it gave (PacketCounter: 2^16 samples at the rate).
+_WRAP_S = {
+    "SampleTimeFine": lambda t: float(2**32) * TICK,
+    "PacketCounter": lambda t: float(2**16) * float(median(np.diff(t))) if t.size > 1 else None,
+}
+
+
 def _timing(table: Any, names: list[str], header: dict[str, str], opts: Options, path: Path, warnings: list[str]):
     """Sample times [s] from the first sample, the rows kept, and where the times came from."""
     rate = None
@@ -204,6 +211,13 @@ def read(path: Path, opts: Options) -> Recording:
     t, keep, tname = _timing(table, names, header, opts, path, warnings)
     if not keep.all():
         table = table.filter(pa.array(keep))
+    # the first sample's time on the counter's own scale (and the counter's wrap period) [s]: exports of one
+    # recording share the counter, so several sensors are synchronised by it (sportfusion.ingest.xsensdir)
+    counter = {
+        "start_s": float(t[0]),
+        "wrap_s": _WRAP_S.get(tname, lambda r: None)(t),
+        "step_s": TICK if tname == "SampleTimeFine" else (float(median(np.diff(t))) if t.size > 1 else None),
+    }
     t = t - t[0]
     cols: dict[str, object] = {}
     used = {"SampleTimeFine", "PacketCounter"}
@@ -219,7 +233,7 @@ def read(path: Path, opts: Options) -> Recording:
     imu = any(k.startswith(("acc_", "gyr_", "mag_")) for k in cols)
     r_gs, ori_cols = _r_gs(table, names)
     used.update(ori_cols)
-    meta: dict[str, Any] = {"header": header, "time_from": tname}
+    meta: dict[str, Any] = {"header": header, "time_from": tname, "counter": counter}
     if r_gs is not None:
         stated = header.get("Coordinate system", "").strip().upper()
         frame = stated if stated in FRAMES else "ENU"

@@ -57,10 +57,19 @@ GLOSSARY: tuple[tuple[str, str], ...] = (
     (
         "Turn (speed in, speed out, path length)",
         "A turn runs from the switch before its gate to the switch after it (a switch: the path's curvature "
-        "changes sign, between two consecutive crossings). Speed in and out are the speeds at the switches; "
+        "changes sign, between two consecutive crossings; with the athlete's body measured, the instant both "
+        "ankles are equally far from the centre of mass). Speed in and out are the speeds at the switches; "
         "the path length is the 3-D length from switch to switch. A gate has no turn when it is the first or "
         "the last crossing (no switch before or after it), when it was not matched, or when no switch lies "
         "between it and a neighbouring crossing; the Turns table says which.",
+    ),
+    (
+        "Centre of mass (CoM)",
+        "With sensors on the legs, pelvis, trunk and head (body-model), the athlete's centre of mass, boots and "
+        "skis included, instead of the sacrum: its line (the CoM's path from the first to the last matched "
+        "gate, in metres), its height above the skis (the mean of the two ski-snow contact points) at each "
+        "gate, its distance to the gate's magnet at the crossing and at the turn switches, and the posture at "
+        "the gates seen from behind.",
     ),
     (
         "Holds reached, grips",

@@ -102,7 +102,7 @@ def gate_crossings(table: pa.Table) -> list[tuple[float, int]]:
 
 def turn_rows(table: pa.Table, surveyed: list[int]) -> list[tuple[Any, ...]]:
     """One row per surveyed gate (and per unmatched crossing): the turn's figures (gate-anchor's turn_*
-    columns) or why there are none -- the rules of ``sportfusion.gates.pipeline.turn_figures``: a turn needs
+    columns) or why there are none -- the rules of ``sportfusion.gates.turns.turn_figures``: a turn needs
     a matched crossing with a crossing before and after it and a turn switch in each interval."""
     t = schema.floats(table, "t")
     cross = gate_crossings(table)
@@ -188,6 +188,84 @@ def gates(ctx: Context) -> Sections:
     if ctx.gates is not None:
         thin = ctx.thin
         out.coach.append("<h2>Course</h2>" + figure(lambda: gates_figure(thin, ctx.gates)))
+    if "com_x" in ctx.table.column_names:  # a body (body-model): the paper's own output, the centre of mass
+        com = centre_of_mass(ctx)
+        out.heads += com.heads
+        out.coach += com.coach
+        out.analyst += com.analyst
+    return out
+
+
+def com_height(table: pa.Table) -> np.ndarray | None:
+    """Height [m] of the centre of mass above the ski line (the mean of the two ski contact points) per row:
+    body-model's points relative to the LJC in its frame J, whose z is down."""
+    need = ["com_rel_z", "ski_r_rel_z", "ski_l_rel_z"]
+    if not all(c in table.column_names for c in need):
+        return None
+    z = {c: schema.floats(table, c) for c in need}
+    return 0.5 * (z["ski_r_rel_z"] + z["ski_l_rel_z"]) - z["com_rel_z"]
+
+
+def centre_of_mass(ctx: Context) -> Sections:
+    """The centre of mass of a session with a body (gates paper, Figs 3-5, Table 2): how low (the CoM's height
+    above the skis at each crossing), how long the line (the CoM path from the first to the last matched gate),
+    where the mass was at each gate (the distances of Table 2); the postures at the gates and one turn from
+    above; with an evaluation, its CoM figures beside the paper's (analyst)."""
+    from sportfusion.gates.plots import body_figure
+
+    table, out = ctx.table, Sections()
+    t = schema.floats(table, "t")
+    com = schema.float_columns(table, ["com_x", "com_y", "com_z"])
+    height = com_height(table)
+    turns = (ctx.meta.get("gate_anchor") or {}).get("turns") or []
+    cross = [(tc, g) for tc, g in gate_crossings(table) if g >= 0]
+    if len(cross) >= 2:
+        w = (t >= cross[0][0]) & (t <= cross[-1][0]) & np.isfinite(com).all(axis=1)
+        line = float(np.sum(np.linalg.norm(np.diff(com[w], axis=0), axis=1)))
+        out.heads.append(
+            ("CoM line", H.number(line, "m", 1), f"path of the centre of mass, gate {cross[0][1]} to {cross[-1][1]}")
+        )
+    if height is not None and cross:
+        at = np.interp([tc for tc, _ in cross], t[np.isfinite(height)], height[np.isfinite(height)])
+        k = int(np.argmin(at))
+        out.heads.append(("Lowest CoM at a gate", H.number(float(at[k]), "m"), f"above the skis, gate {cross[k][1]}"))
+    by_gate = {int(tr["gate"]): tr for tr in turns}
+    rows = []
+    for tc, g in cross:
+        tr = by_gate.get(g, {})
+        h = None if height is None else float(np.interp(tc, t[np.isfinite(height)], height[np.isfinite(height)]))
+        rows.append(
+            (
+                f"gate {g}",
+                H.number(h, "m"),
+                H.number(tr.get("d_cross"), "m"),
+                H.number(tr.get("d_in"), "m"),
+                H.number(tr.get("d_out"), "m"),
+                H.number(tr.get("length"), "m"),
+            )
+        )
+    if rows:
+        out.coach.append(
+            "<h2>Centre of mass at the gates</h2>"
+            + H.table(
+                ["gate", "CoM height", "CoM to gate", "from switch in", "to switch out", "turn length"],
+                rows,
+                caption="Per matched gate: the CoM's height above the skis and its distance to the gate's magnet at "
+                "the crossing, its distances to the magnet at the turn switches (equal left/right ankle distance to "
+                "the CoM) and its path from switch to switch (gates paper, Table 2)",
+                cards=True,
+                ident="com",
+            )
+        )
+    thin = ctx.thin
+    out.coach.append(
+        "<h2>Posture at the gates</h2>" + figure(lambda: body_figure(thin, ctx.meta, ctx.gates, max_postures=6))
+    )
+    res = (ctx.evaluation_meta.get("evaluation") or {}).get("com") if ctx.evaluation_meta else None
+    if res:
+        from sportfusion.evaluate.com import format_com
+
+        out.analyst.append("<h3>Centre of mass against the truth</h3><pre>" + H.esc(format_com(res)) + "</pre>")
     return out
 
 
@@ -252,4 +330,13 @@ SPORT_SECTIONS: dict[str, Callable[[Context], Sections]] = {
     "climbing": climbing,
 }
 
-__all__ = ["SPORT_SECTIONS", "gate_crossings", "hold_certainty", "hold_sequence", "turn_rows", "speed_of"]
+__all__ = [
+    "SPORT_SECTIONS",
+    "centre_of_mass",
+    "com_height",
+    "gate_crossings",
+    "hold_certainty",
+    "hold_sequence",
+    "turn_rows",
+    "speed_of",
+]
