@@ -25,6 +25,7 @@ from sportfusion.tools._options import check_number, parse_pairs
   ingest track.gpx --geoid-offset 47.9 > gnss.parquet
   ingest dataset/P01/V01/trials/T1 --hand lefthand --holds-out holds.parquet > trial.parquet
   ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet
+  ingest logger.csv --map t=time,lat=lat,lon=lon,gnss_speed=speed --invalid gnss_speed=-1 > s.parquet
   ingest rover.pos imu.csv --map imu.csv:t=1,acc_x=2,acc_y=3,acc_z=4 --units imu.csv:t=ticks,acc=0.000244g --rate 400 > s.parquet""",
 )
 @click.argument("raw", nargs=-1, required=True, type=click.Path(exists=True, path_type=Path))
@@ -94,6 +95,14 @@ from sportfusion.tools._options import check_number, parse_pairs
     "acc=0.000244g). A FILE: prefix applies it to that input only.",
 )
 @click.option(
+    "--invalid",
+    "invalid",
+    multiple=True,
+    metavar="[FILE:]COL=VALUE[/VALUE...][,...]",
+    help="Generic CSV: the file's markers for 'no value' per column, group (acc) or * (every mapped column but t), "
+    "as written (before --units), e.g. gnss_speed=-1 or acc=-999/9999: read as null, counted. None is assumed.",
+)
+@click.option(
     "--hand",
     type=click.Choice(["lefthand", "righthand"]),
     default=None,
@@ -131,6 +140,7 @@ def main(
     time_unit: str,
     rate: float | None,
     units: tuple[str, ...],
+    invalid: tuple[str, ...],
     hand: str | None,
     hold_map: str | None,
     map_up: str,
@@ -151,6 +161,7 @@ def main(
         )
     maps, map_all = _per_input(mapping, "--map", raw)
     unit_sets, units_all = _per_input(units, "--units", raw)
+    invalid_sets, invalid_all = _per_input(invalid, "--invalid", raw)
     opts = Options(
         geoid_offset=geoid_offset,
         no_time=no_time,
@@ -171,9 +182,17 @@ def main(
             opts,
             column_map={**map_all, **maps.get(i, {})},
             units={**units_all, **unit_sets.get(i, {})},
+            invalid={**invalid_all, **invalid_sets.get(i, {})},
         )
         # a column map only makes sense for the generic CSV reader
-        recordings.append(read_recording(p, fmt or ("csvmap" if own.column_map else None), own))
+        rec = read_recording(p, fmt or ("csvmap" if own.column_map else None), own)
+        if own.invalid and rec.format != "csvmap":
+            raise click.BadParameter(
+                f"{p.name} is read as {rec.format}, which nulls its own documented markers; --invalid applies to "
+                "a generic CSV read through --map only (give FILE: to name that input)",
+                param_hint="--invalid",
+            )
+        recordings.append(rec)
     table, meta, warnings = combine(recordings, offs)
     for w in warnings:
         tool.warn(w)
