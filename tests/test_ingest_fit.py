@@ -468,3 +468,36 @@ def test_fit_base_type_invalid_values_are_null_and_counted(tmp_path):
     (line,) = [w for w in rec.warnings if "invalid markers" in w]
     for part in ("1 lat/lon", "1 h_msl", "1 gnss_speed", "1 heart_rate", "1 cadence", "1 power", "1 temperature"):
         assert part in line
+
+
+def test_fit_invalid_array_elements_of_imu_messages_are_null(tmp_path):
+    """A raw count holding uint16's invalid value (0xFFFF) in an accelerometer message is no value: that
+    sample's calibrated vector (every axis goes through the orientation matrix) is null, counted."""
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    enc.on_mesg(MN["RECORD"], {"timestamp": T0, "position_lat": semi(47.3), "position_long": semi(11.4)})
+    cal = {"calibration_factor": 1, "calibration_divisor": 1000, "level_shift": 32768, "offset_cal": [0, 0, 0]}
+    enc.on_mesg(
+        MN["THREE_D_SENSOR_CALIBRATION"],
+        {"timestamp": T0, "sensor_type": "accelerometer", **cal, "orientation_matrix": [1, 0, 0, 0, 1, 0, 0, 0, 1]},
+    )
+    for s in range(2):
+        enc.on_mesg(
+            MN["ACCELEROMETER_DATA"],
+            {
+                "timestamp": T0 + dt.timedelta(seconds=s),
+                "timestamp_ms": 0,
+                "sample_time_offset": [0, 500],
+                "accel_x": [32768, 0xFFFF if s == 1 else 32768],
+                "accel_y": [32768, 32768],
+                "accel_z": [32768 + 1000, 32768 + 1000],  # 1 g
+            },
+        )
+    p = tmp_path / "acc.fit"
+    p.write_bytes(enc.close())
+    rec = read_recording(p)
+    acc = stream(rec, "accelerometer")
+    np.testing.assert_allclose(acc.columns["acc_z"], [9.80665] * 3 + [np.nan], atol=1e-9, equal_nan=True)
+    assert np.isnan(acc.columns["acc_x"][3]) and np.isfinite(acc.columns["acc_x"][:3]).all()
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "accelerometer_data messages: 3 acc_x/y/z" in line
