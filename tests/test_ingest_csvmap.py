@@ -106,3 +106,63 @@ def test_command_with_map_picks_the_generic_reader(tmp_path):
     proc = subprocess.run([str(BIN / "ingest"), str(p), "-o", str(out)], capture_output=True, timeout=120)
     assert proc.returncode == 1 and proc.stdout == b""
     assert proc.stderr.decode().startswith("Error: ingest:") and "--map" in proc.stderr.decode()
+
+
+def test_declared_invalid_markers_are_null_and_counted(tmp_path):
+    """--invalid: the markers a logger documents are null (matched as written, before unit conversion);
+    values that merely look like markers elsewhere, and undeclared columns, are untouched."""
+    text = (
+        "time,speed,course,AccX,AccY,AccZ,alt\n"
+        "0,1.5,90,0.1,0.2,1.0,500\n"
+        "1,-1.0,-1,-999,0.2,1.0,---\n"  # unknown speed and course (iOS), the logger's -999 and ---
+        "2,2.5,-1,0.1,9999,-1,501\n"  # acc_z -1 g is a value: only -999/9999 are declared for acc
+        "3,3.0,180,0.1,0.2,1.0,502\n"
+    )
+    p = write(tmp_path, text)
+    cmap = {"t": "time", "gnss_speed": "speed", "gnss_course": "course", "h_msl": "alt"}
+    cmap |= {f"acc_{a}": f"Acc{a.upper()}" for a in "xyz"}
+    opts = Options(
+        column_map=cmap,
+        units={"gnss_speed": "km/h", "acc": "g"},
+        invalid={"gnss_speed": "-1", "gnss_course": "-1", "acc": "-999/9999", "h_msl": "---"},
+    )
+    rec = csvmap.read(p, opts)
+    np.testing.assert_allclose(vals(rec, "gnss_speed"), [1.5 / 3.6, np.nan, 2.5 / 3.6, 3.0 / 3.6], equal_nan=True)
+    np.testing.assert_allclose(vals(rec, "gnss_course"), [90, np.nan, np.nan, 180], equal_nan=True)
+    np.testing.assert_allclose(vals(rec, "acc_x"), np.array([0.1, np.nan, 0.1, 0.1]) * 9.80665, equal_nan=True)
+    np.testing.assert_allclose(vals(rec, "acc_y"), np.array([0.2, 0.2, np.nan, 0.2]) * 9.80665, equal_nan=True)
+    np.testing.assert_allclose(vals(rec, "acc_z"), np.array([1.0, 1.0, -1.0, 1.0]) * 9.80665)
+    np.testing.assert_allclose(vals(rec, "h_msl"), [500, np.nan, 501, 502], equal_nan=True)
+    assert not any(k.startswith("vel_") for k in rec.streams[0].columns)
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "1 gnss_speed (-1)" in line and "2 gnss_course (-1)" in line and "1 h_msl (---)" in line
+    assert "1 acc_x (-999/9999)" in line and "1 acc_y (-999/9999)" in line and "acc_z" not in line
+    # without --invalid nothing is guessed: -1 km/h stays a (nonsense) value
+    plain = csvmap.read(p, Options(column_map={"t": "time", "gnss_speed": "speed"}))
+    assert vals(plain, "gnss_speed")[1] == -1.0
+    # '*' declares a marker for every mapped column but t; t takes none
+    star = csvmap.read(p, Options(column_map={"t": "time", "gnss_course": "course"}, invalid={"*": "-1"}))
+    assert np.isnan(vals(star, "gnss_course")[1:3]).all()
+    with pytest.raises(InputError, match="time column takes no invalid markers"):
+        csvmap.read(p, Options(column_map={"t": "time"}, invalid={"t": "0"}))
+    with pytest.raises(InputError, match="does not map"):
+        csvmap.read(p, Options(column_map={"t": "time"}, invalid={"gyr": "0"}))
+
+
+def test_invalid_option_on_the_command_line(tmp_path):
+    p = write(tmp_path, "time,speed\n0,1.5\n1,-1\n2,2.0\n")
+    r = subprocess.run(
+        [BIN / "ingest", str(p), "--map", "t=time,gnss_speed=speed", "--invalid", "gnss_speed=-1"],
+        capture_output=True,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "invalid markers (declared by --invalid) read as null: 1 gnss_speed (-1)" in r.stderr.decode()
+    t = sfio.table_from_bytes(r.stdout)
+    assert t.column("gnss_speed").to_pylist()[1] is None
+    gpx = tmp_path / "a.gpx"
+    gpx.write_text(
+        '<?xml version="1.0"?><gpx version="1.1" creator="t" xmlns="http://www.topografix.com/GPX/1/1"><trk><trkseg>'
+        '<trkpt lat="47" lon="11"><time>2024-01-01T00:00:00Z</time></trkpt></trkseg></trk></gpx>'
+    )
+    r = subprocess.run([BIN / "ingest", str(gpx), "--invalid", "h=-1"], capture_output=True)
+    assert r.returncode == 2 and r.stdout == b"" and "--invalid" in r.stderr.decode()

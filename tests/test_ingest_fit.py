@@ -394,3 +394,110 @@ def test_fit_record_clock_jump_of_days_is_reported_and_kept(tmp_path):
     assert d.max() == pytest.approx(20 * 86400 + 1.0)  # kept as written
     line = next(w for w in rec.warnings if "record clock" in w)
     assert "forward by 20.0 d" in line and "elapsed time" in line and "0.3 h" in line and "kept as written" in line
+
+
+def test_tcx_schema_invalid_markers_are_null_and_counted(tmp_path):
+    """Cadence 255, heart rate 0, a negative speed and a position off the globe are no values (TCX v2 schema)."""
+    pts = [
+        tcx_point("2024-01-20T10:00:00Z", 47.1, 11.2, 1500.0, 120, 4.0, 200, 80),
+        tcx_point("2024-01-20T10:00:01Z", 47.1001, 11.2001, 1500.5, 0, -1, 210, 255),
+        tcx_point("2024-01-20T10:00:02Z", 180.0, 360.0, 1501.0, 121, 4.2, 220, 81),
+        tcx_point("2024-01-20T10:00:03Z", 47.1003, 11.2003, 1501.5, 122, 4.3, 230, 82),
+    ]
+    p = tmp_path / "m.tcx"
+    p.write_text(TCX.format(points="\n".join(pts)), encoding="utf-8")
+    rec = read_recording(p)
+    c = rec.streams[0].columns
+    np.testing.assert_allclose(c["cadence"], [80, np.nan, 81, 82], equal_nan=True)
+    np.testing.assert_allclose(c["heart_rate"], [120, np.nan, 121, 122], equal_nan=True)
+    np.testing.assert_allclose(c["gnss_speed"], [4.0, np.nan, 4.2, 4.3], equal_nan=True)
+    np.testing.assert_allclose(c["lat"], [47.1, 47.1001, np.nan, 47.1003], equal_nan=True)
+    np.testing.assert_allclose(c["lon"], [11.2, 11.2001, np.nan, 11.2003], equal_nan=True)
+    np.testing.assert_allclose(c["power"], [200, 210, 220, 230])  # valid values untouched
+    assert not any(k.startswith("vel_") for k in c)  # nothing derived from the markers
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "1 cadence" in line and "1 heart_rate" in line and "1 gnss_speed" in line and "1 lat/lon" in line
+    r = run_cli(["ingest", str(p)])
+    assert r.returncode == 0, r.stderr
+    assert "invalid markers" in r.stderr.decode()
+
+
+def test_fit_base_type_invalid_values_are_null_and_counted(tmp_path):
+    """A record whose fields hold FIT's invalid values (0x7FFFFFFF sint32 position, 0xFF uint8, 0xFFFF uint16,
+    0xFFFFFFFF uint32, 0x7F sint8) reads as nulls, counted in one warning; the valid records are untouched."""
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    good = {
+        "position_lat": semi(47.3),
+        "position_long": semi(11.4),
+        "heart_rate": 120,
+        "cadence": 80,
+        "power": 200,
+        "enhanced_altitude": 1800.0,
+        "enhanced_speed": 5.0,
+        "temperature": 5,
+    }
+    invalid = {
+        "position_lat": 0x7FFFFFFF,
+        "position_long": 0x7FFFFFFF,
+        "heart_rate": 0xFF,
+        "cadence": 0xFF,
+        "power": 0xFFFF,
+        "enhanced_altitude": 0xFFFFFFFF / 5 - 500,  # scale 5, offset 500: the raw value is 0xFFFFFFFF
+        "enhanced_speed": 0xFFFFFFFF / 1000,  # scale 1000
+        "temperature": 0x7F,
+    }
+    for i in range(4):
+        enc.on_mesg(MN["RECORD"], {"timestamp": T0 + dt.timedelta(seconds=i), **(invalid if i == 2 else good)})
+    p = tmp_path / "inv.fit"
+    p.write_bytes(enc.close())
+    assert sdk_records(p)[2].get("heart_rate") in (None, 255)  # the SDK decodes the marker too (no value)
+    rec = read_recording(p)
+    c = stream(rec, "fit_record").columns
+    for col, v in (
+        ("lat", 47.3),
+        ("h_msl", 1800.0),
+        ("gnss_speed", 5.0),
+        ("heart_rate", 120),
+        ("cadence", 80),
+        ("power", 200),
+        ("temperature", 5),
+    ):
+        np.testing.assert_allclose(c[col], [v, v, np.nan, v], equal_nan=True, atol=1e-6, err_msg=col)
+    assert not any(k.startswith("vel_") for k in c)
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    for part in ("1 lat/lon", "1 h_msl", "1 gnss_speed", "1 heart_rate", "1 cadence", "1 power", "1 temperature"):
+        assert part in line
+
+
+def test_fit_invalid_array_elements_of_imu_messages_are_null(tmp_path):
+    """A raw count holding uint16's invalid value (0xFFFF) in an accelerometer message is no value: that
+    sample's calibrated vector (every axis goes through the orientation matrix) is null, counted."""
+    enc = Encoder()
+    enc.on_mesg(MN["FILE_ID"], {"type": "activity", "manufacturer": "garmin", "product": 1, "time_created": T0})
+    enc.on_mesg(MN["RECORD"], {"timestamp": T0, "position_lat": semi(47.3), "position_long": semi(11.4)})
+    cal = {"calibration_factor": 1, "calibration_divisor": 1000, "level_shift": 32768, "offset_cal": [0, 0, 0]}
+    enc.on_mesg(
+        MN["THREE_D_SENSOR_CALIBRATION"],
+        {"timestamp": T0, "sensor_type": "accelerometer", **cal, "orientation_matrix": [1, 0, 0, 0, 1, 0, 0, 0, 1]},
+    )
+    for s in range(2):
+        enc.on_mesg(
+            MN["ACCELEROMETER_DATA"],
+            {
+                "timestamp": T0 + dt.timedelta(seconds=s),
+                "timestamp_ms": 0,
+                "sample_time_offset": [0, 500],
+                "accel_x": [32768, 0xFFFF if s == 1 else 32768],
+                "accel_y": [32768, 32768],
+                "accel_z": [32768 + 1000, 32768 + 1000],  # 1 g
+            },
+        )
+    p = tmp_path / "acc.fit"
+    p.write_bytes(enc.close())
+    rec = read_recording(p)
+    acc = stream(rec, "accelerometer")
+    np.testing.assert_allclose(acc.columns["acc_z"], [9.80665] * 3 + [np.nan], atol=1e-9, equal_nan=True)
+    assert np.isnan(acc.columns["acc_x"][3]) and np.isfinite(acc.columns["acc_x"][:3]).all()
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "accelerometer_data messages: 3 acc_x/y/z" in line

@@ -468,3 +468,43 @@ def test_ingest_base_option(tmp_path):
     assert np.allclose(table.column("lat").to_numpy(), truth[:, 0], atol=1e-8)
     bad = subprocess.run([str(BIN / "ingest"), str(p), "--base", "46.4,9.8"], capture_output=True)
     assert bad.returncode == 2 and b"--base" in bad.stderr
+
+
+def test_no_solution_and_ecef_origin_are_null(tmp_path):
+    """Q = 0 (RTKLIB's SOLQ_NONE) and the ECEF origin (an empty solution; lat -90, lon 0, height -6378137 m in
+    llh) are no positions: position, velocity and sigmas null, Q kept, one warning; nothing else changes."""
+    lines = [LLH_HEAD.format(height="ellipsoidal").rstrip("\n"), LLH_COLS.format(time="GPST") + VEL_COLS]
+    rows = [  # (q, lat, lon, h)
+        (1, 47.4049, 10.2945, 960.2),
+        (0, 47.4049, 10.2945, 960.2),  # no solution, the last position repeated
+        (5, -90.0, 0.0, -6378137.0),  # the ECEF origin written as geodetic coordinates
+        (1, 47.40491, 10.2945, 960.3),
+    ]
+    for i, (q, lat, lon, h) in enumerate(rows):
+        stamp = f"2026/01/05 13:00:{18 + i:02d}.000"
+        lines.append(llh_line(stamp, lat, lon, h, q, 12, SD[0], 1.0, 5.0, (3.0, 4.0, 0.5, 0.01, 0.02, 0.03, 0, 0, 0)))
+    p = tmp_path / "none.pos"
+    p.write_text("\n".join(lines) + "\n")
+    rec = rtklib.read(p, Options())
+    assert col(rec, "rtk_q") == [1, 0, 5, 1] and col(rec, "gnss_fix") == [4, 0, 1, 4]
+    for name in ("lat", "lon", "h", "vel_n", "vel_e", "vel_d", "gnss_sigma_h", "std_vel_n", "gnss_sdne"):
+        v = col(rec, name)
+        assert v[1] is None and v[2] is None, name
+        assert v[0] is not None and v[3] is not None, name
+    assert col(rec, "lat")[3] == pytest.approx(47.40491, abs=1e-10)
+    assert col(rec, "gnss_sats") == [12] * 4
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "1 with Q = 0" in line and "1 at the Earth's centre" in line and "2 of 4 epoch(s)" in line
+    # ECEF xyz: the origin itself
+    head = "%  UTC                       x-ecef(m)      y-ecef(m)      z-ecef(m)   Q  ns   sdx(m)   sdy(m)   sdz(m)  sdxy(m)  sdyz(m)  sdzx(m) age(s)  ratio"
+    x, y, z = pymap3d.geodetic2ecef(46.4975, 9.8365, 2200.0)
+    body = [
+        f"2026/02/10 10:00:00.000 {x:14.4f} {y:14.4f} {z:14.4f}   1  10" + " 0.0200" * 6 + "   0.00    3.0",
+        f"2026/02/10 10:00:01.000 {0:14.4f} {0:14.4f} {0:14.4f}   5  10" + " 0.0200" * 6 + "   0.00    3.0",
+    ]
+    p = tmp_path / "xyz0.pos"
+    p.write_text(head + "\n" + "\n".join(body) + "\n")
+    rec = rtklib.read(p, Options())
+    assert col(rec, "lat")[1] is None and col(rec, "h")[1] is None and col(rec, "gnss_sigma_n")[1] is None
+    assert col(rec, "lat")[0] == pytest.approx(46.4975, abs=1e-8)
+    assert any("1 at the Earth's centre" in w for w in rec.warnings)

@@ -252,3 +252,25 @@ def test_rate_from_a_long_header_and_the_command_line(tmp_path):
     table, _ = sfio.read_table(out, kind="session")
     assert table.column_names[:5] == ["t", "q0", "q1", "q2", "q3"]
     np.testing.assert_allclose(table.column("t").to_numpy(), np.arange(6) / 50.0)
+
+
+def test_zero_quaternion_and_empty_cells_are_null(tmp_path):
+    """An orientation that is no rotation (MT Manager's zero quaternion before the filter has a solution) and
+    empty cells read as null, counted; the other rows convert as usual."""
+    p = export(tmp_path)
+    lines = p.read_text().splitlines()
+    head = lines[len(HEADER.splitlines())].split("\t")
+    row = lines[len(HEADER.splitlines()) + 2].split("\t")
+    for i in range(4):
+        row[head.index(f"Quat_q{i}")] = "0.000000000"
+    row[head.index("Acc_X")] = ""  # a packet without this value
+    lines[len(HEADER.splitlines()) + 2] = "\t".join(row)
+    p.write_text("\n".join(lines) + "\n")
+    rec = xsens.read(p, Options())
+    q = np.column_stack([vals(rec, f"dev_q{i}") for i in range(4)])
+    assert np.isnan(q[1]).all() and np.isfinite(np.delete(q, 1, axis=0)).all()
+    np.testing.assert_allclose(np.linalg.norm(np.delete(q, 1, axis=0), axis=1), 1.0, atol=1e-9)
+    acc_x = vals(rec, "acc_x")
+    assert np.isnan(acc_x[1]) and np.isfinite(np.delete(acc_x, 1)).all()
+    (line,) = [w for w in rec.warnings if "invalid markers" in w]
+    assert "1 orientation(s) that are no rotation" in line

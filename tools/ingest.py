@@ -26,6 +26,7 @@ from sportfusion.tools._options import check_number, parse_pairs
   ingest track.gpx --geoid-offset 47.9 > gnss.parquet
   ingest dataset/P01/V01/trials/T1 --hand lefthand --holds-out holds.parquet > trial.parquet
   ingest --format csvmap log.csv --map t=Time,acc_x=AccX,acc_y=AccY,acc_z=AccZ --time-unit ms --units acc_x=g,acc_y=g,acc_z=g > s.parquet
+  ingest logger.csv --map t=time,lat=lat,lon=lon,gnss_speed=speed --invalid gnss_speed=-1 > s.parquet
   ingest rover.pos imu.csv --map imu.csv:t=1,acc_x=2,acc_y=3,acc_z=4 --units imu.csv:t=ticks,acc=0.000244g --rate 400 > s.parquet
   ingest imus/ > body.parquet                          # Xsens exports + myIMUMappings.xml (OpenSense)
   ingest imus/ --mapping myIMUMappings.xml -o body.parquet
@@ -99,6 +100,14 @@ from sportfusion.tools._options import check_number, parse_pairs
     "acc=0.000244g). A FILE: prefix applies it to that input only.",
 )
 @click.option(
+    "--invalid",
+    "invalid",
+    multiple=True,
+    metavar="[FILE:]COL=VALUE[/VALUE...][,...]",
+    help="Generic CSV: the file's markers for 'no value' per column, group (acc) or * (every mapped column but t), "
+    "as written (before --units), e.g. gnss_speed=-1 or acc=-999/9999: read as null, counted. None is assumed.",
+)
+@click.option(
     "--hand",
     type=click.Choice(["lefthand", "righthand"]),
     default=None,
@@ -153,6 +162,7 @@ def main(
     time_unit: str,
     rate: float | None,
     units: tuple[str, ...],
+    invalid: tuple[str, ...],
     hand: str | None,
     hold_map: str | None,
     map_up: str,
@@ -175,6 +185,7 @@ def main(
         )
     maps, map_all = _per_input(mapping, "--map", raw)
     unit_sets, units_all = _per_input(units, "--units", raw)
+    invalid_sets, invalid_all = _per_input(invalid, "--invalid", raw)
     opts = Options(
         geoid_offset=geoid_offset,
         no_time=no_time,
@@ -201,9 +212,16 @@ def main(
             opts,
             column_map={**map_all, **maps.get(i, {})},
             units={**units_all, **unit_sets.get(i, {})},
+            invalid={**invalid_all, **invalid_sets.get(i, {})},
         )
         # a column map only makes sense for the generic CSV reader
         rec = read_recording(p, fmt or ("csvmap" if own.column_map and not p.is_dir() else None), own)
+        if own.invalid and rec.format != "csvmap":
+            raise click.BadParameter(
+                f"{p.name} is read as {rec.format}, which nulls its own documented markers; --invalid applies to "
+                "a generic CSV read through --map only (give FILE: to name that input)",
+                param_hint="--invalid",
+            )
         seg = next((v for k, v in file_segs.items() if k in (str(p), p.name)), None)
         if seg is not None:
             rec = segment_recording(rec, seg)

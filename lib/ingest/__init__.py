@@ -79,6 +79,10 @@ class Options:
         Bouldering dataset: folder of the hold map (``routes/``, ``start_handles.json``); default: searched.
     map_up : str
         Bouldering dataset: the hold map's up axis (``x y z -x -y -z``).
+    invalid : dict
+        Generic CSV: column, column group (``acc`` for ``acc_x/y/z``) or ``*`` (every mapped column but
+        ``t``) -> its invalid markers as written in the file, ``/``-separated (``gnss_speed=-1``,
+        ``acc=-999/9999``, ``h=N/A``): cells holding one are read as null.
     rate : float or None
         Sampling rate [Hz] of an input whose file does not state one: Xsens exports
         timed by PacketCounter, generic CSVs whose time column counts ticks.
@@ -105,6 +109,7 @@ class Options:
     mapping: str | None = None
     segments: dict[str, str] = field(default_factory=dict)
     base: tuple[float, float, float] | None = None
+    invalid: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass

@@ -25,6 +25,17 @@ Units (``Options.units``)
     ``1`` recorded in the metadata's ``units``).  Unregistered target columns
     pass through as read (no unit conversion possible).
 
+Invalid markers (``Options.invalid``, ``--invalid``)
+    A generic CSV documents no invalid markers, so none is guessed: the
+    values a logger writes for "no value" are declared per column, per
+    column group or for every mapped column (``*``), as written in the file
+    (before any unit conversion), several joined by ``/``:
+    ``--invalid gnss_speed=-1,gnss_course=-1``, ``--invalid acc=-999/9999``,
+    ``--invalid '*=N/A'``.  A number matches numerically (``-1`` matches
+    ``-1.0``), other text matches the trimmed cell.  Matching cells are read
+    as null, counted per column in one warning.  The time column takes
+    none (every row needs a time).
+
 Time (``Options.time_unit``, or ``units["t"]`` which wins)
     ``s``, ``ms``, ``us``, ``ns``, a scaled unit (``0.0001s``: ticks of
     100 us) or ``ticks`` (sample counter; ``Options.rate`` [Hz] gives the
@@ -45,6 +56,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 
 from sportfusion.core import schema
 from sportfusion.core.errors import InputError
@@ -130,6 +142,64 @@ def _resolve_units(units: dict[str, str], cmap: dict[str, str]) -> dict[str, str
     return out
 
 
+def _resolve_invalid(invalid: dict[str, str], cmap: dict[str, str]) -> dict[str, list[str]]:
+    """Per mapped column, its declared invalid markers (from a column, a group such as ``acc``, or ``*``)."""
+    out: dict[str, list[str]] = {}
+    for key, spec in invalid.items():
+        markers = [m.strip() for m in spec.split("/") if m.strip()]
+        if key == "t":
+            raise InputError("--invalid t=...: the time column takes no invalid markers (every row needs a time)")
+        members = [c for c in cmap if c != "t"] if key == "*" else [key] if key in cmap else []
+        if not members:
+            members = [c for c in cmap if c.startswith(key + "_")]
+        if not members:
+            raise InputError(f"--invalid names column {key!r}, which --map does not map (nor any {key}_* column)")
+        for c in members:
+            out.setdefault(c, [])
+            out[c] += [m for m in markers if m not in out[c]]
+    return out
+
+
+def _marker_number(text: str) -> float | None:
+    try:
+        x = float(text)
+    except ValueError:
+        return None
+    return x if np.isfinite(x) else None
+
+
+def _null_markers(
+    table: pa.Table, cmap: dict[str, str], markers: dict[str, list[str]], warnings: list[str]
+) -> pa.Table:
+    """Null the cells holding a declared invalid marker (numbers numerically, text as written), counted."""
+    counts: list[str] = []
+    for c, ms in markers.items():
+        header = cmap[c]
+        col = table.column(header)
+        nums = [x for m in ms if (x := _marker_number(m)) is not None]
+        texts = [m for m in ms if _marker_number(m) is None]
+        if pa.types.is_integer(col.type) or pa.types.is_floating(col.type):
+            v = np.asarray(col.cast(pa.float64(), safe=False).fill_null(np.nan).to_numpy(), dtype=np.float64)
+            hit = np.isin(v, nums) if nums else np.zeros(len(v), dtype=bool)
+        else:
+            cells = col.cast(pa.string()).to_pylist()
+            hit = np.array(
+                [
+                    x is not None and (x.strip() in texts or (bool(nums) and _marker_number(x.strip()) in nums))
+                    for x in cells
+                ],
+                dtype=bool,
+            )
+        n = int(hit.sum())
+        if n:
+            kept = pc.if_else(pa.array(hit), pa.nulls(len(hit), col.type), col.combine_chunks())
+            table = table.set_column(table.column_names.index(header), header, kept)
+            counts.append(f"{n} {c} ({'/'.join(ms)})")
+    if counts:
+        warnings.append(f"invalid markers (declared by --invalid) read as null: {', '.join(counts)}")
+    return table
+
+
 def _time_seconds(spec: str, rate: float | None) -> float:
     """Seconds per unit of a numeric time column: ``ms``, ``0.0001s``, ``ticks`` (with a rate), ..."""
     if spec in TIME_UNITS:
@@ -194,6 +264,8 @@ def read(path: Path, opts: Options) -> Recording:
     if unread:
         what = "column number(s)" if headerless else "column(s)"
         warnings.append(f"{what} not mapped and not read: {', '.join(unread)}")
+    if opts.invalid:
+        table = _null_markers(table, cmap, _resolve_invalid(dict(opts.invalid), cmap), warnings)
     th = cmap.pop("t")
     t_spec = units.pop("t", opts.time_unit)
     epoch = None

@@ -50,6 +50,15 @@ Columns (units)
     [m/s^2], ``gyr_*`` [rad/s], ``mag_*`` [uT].  Raw counts without a
     calibration are dropped with a warning.
 
+Invalid markers
+    FIT marks a field without a value by its base type's *invalid* value
+    (FIT protocol, "Base Types": 0x7F sint8, 0xFF uint8/enum, 0x7FFF sint16,
+    0xFFFF uint16, 0x7FFFFFFF sint32 -- e.g. a position without a fix --,
+    0xFFFFFFFF uint32, NaN float, 0 for the ``z`` types).  ``fitdecode``
+    returns None for those (also per element of an array field); they are
+    read as null, never as a value, and counted per column in one warning.
+    No column is derived from them.
+
 Errors
     A truncated file, a bad CRC or a bad header raise
     :class:`~sportfusion.core.errors.InputError` with one line.  Quirks the
@@ -76,6 +85,19 @@ FIT_EPOCH = 631065600
 #: date_time values below this are seconds since device power-on (system time).
 SYSTEM_TIME_MAX = 0x10000000
 SEMICIRCLE_DEG = 180.0 / 2**31
+#: key (not a FIT field name) under which a message lists its fields that held their base type's invalid value
+INVALID = "\0invalid"
+#: record column -> the FIT fields it is read from
+_RECORD_SOURCES = {
+    "lat/lon": ("position_lat", "position_long"),
+    "h_msl": ("enhanced_altitude", "altitude"),
+    "gnss_speed": ("enhanced_speed", "speed"),
+    "heart_rate": ("heart_rate",),
+    "power": ("power",),
+    "gnss_sigma_h": ("gps_accuracy",),
+    "cadence": ("cadence",),
+    "temperature": ("temperature",),
+}
 G0 = 9.80665
 
 #: sensor message -> (column prefix, field stem, calibrated unit -> SI factor, sensor_type of its calibration)
@@ -116,10 +138,15 @@ def _messages(path: Path) -> tuple[list[tuple[str, dict[str, Any]]], list[str]]:
                 for frame in fit:
                     if frame.frame_type != fitdecode.FIT_FRAME_DATA:
                         continue
-                    fields = {}
+                    fields: dict[str, Any] = {}
+                    invalid = []
                     for f in frame.fields:
                         if f.value is not None and f.name not in fields:
                             fields[f.name] = f.value
+                        elif f.value is None and f.raw_value is None:
+                            invalid.append(f.name)  # the base type's invalid value, nulled by the decoder
+                    if invalid:
+                        fields[INVALID] = frozenset(invalid)
                     out.append((frame.name, fields))
         if caught:
             first = str(caught[0].message).splitlines()[0] if str(caught[0].message) else "?"
@@ -209,6 +236,7 @@ def _first_utc(messages: list[tuple[str, dict[str, Any]]]) -> int | None:
 def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Options) -> tuple[dict, list[str]]:
     times: list[float] = []
     rows: list[dict[str, float]] = []
+    nulled: dict[str, int] = {}
     for name, f in messages:
         if name != "record":
             continue
@@ -235,9 +263,16 @@ def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Op
         temp = _num(f.get("temperature"))
         if math.isfinite(temp):
             row["temperature"] = temp
+        bad = f.get(INVALID)
+        if bad:
+            for col, srcs in _RECORD_SOURCES.items():
+                if col.split("/")[0] not in row and any(k in bad for k in srcs):
+                    nulled[col] = nulled.get(col, 0) + 1
         times.append(t)
         rows.append(row)
     warnings: list[str] = []
+    if nulled:
+        warnings.append(_invalid_line("record", nulled))
     if not rows:
         return {}, warnings
     ts = np.array(times)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)
@@ -248,6 +283,15 @@ def _records(messages: list[tuple[str, dict[str, Any]]], clock: _Clock, opts: Op
     if "h_msl" in cols and opts.geoid_offset is not None:
         cols["h"] = cols["h_msl"] + float(opts.geoid_offset)
     return {"t": ts, **cols}, warnings
+
+
+def _invalid_line(kind: str, nulled: dict[str, int]) -> str:
+    """One warning naming how many values of each column held FIT's invalid marker."""
+    return (
+        f"invalid markers (FIT's 'invalid' value of the field's base type, e.g. 0x7FFFFFFF for a sint32 position, "
+        f"0xFFFF for a uint16, 0xFF for a uint8) read as null in {kind} messages: "
+        + ", ".join(f"{n} {k}" for k, n in nulled.items())
+    )
 
 
 #: a step of the record clock longer than this [s] is a clock jump worth a line (a day)
@@ -327,6 +371,7 @@ def _sensor(messages: list[tuple[str, dict[str, Any]]], kind: str, clock: _Clock
     ts: list[np.ndarray] = []
     vals: list[np.ndarray] = []
     dropped = 0
+    nulled: dict[str, int] = {}
     for i, (name, f) in enumerate(messages):
         if name != kind:
             continue
@@ -356,12 +401,17 @@ def _sensor(messages: list[tuple[str, dict[str, Any]]], kind: str, clock: _Clock
             continue
         ts.append(base + offs)
         vals.append(v * si)
+        nan = np.count_nonzero(~np.isfinite(v))  # the decoder gives None (NaN here) for an invalid array element
+        if nan:
+            nulled[prefix] = nulled.get(prefix, 0) + int(nan)
     warnings = []
     if dropped:
         warnings.append(
             f"{dropped} {kind} message(s) dropped (raw counts without a three_d_sensor_calibration, "
             "or sample counts that do not match)"
         )
+    if nulled:
+        warnings.append(_invalid_line(kind, {f"{prefix}_x/y/z": n for n in nulled.values()}))
     if not ts:
         return {}, warnings
     t = np.concatenate(ts)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)

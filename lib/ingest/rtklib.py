@@ -54,6 +54,12 @@ Columns (units)
     [m/s], ``std_vel_n/e/d`` = sdvn/sdve/sdvu (xyz: rotated like the
     position covariance).
 
+Invalid markers
+    Q = 0 (``SOLQ_NONE``, no solution) and a position at the ECEF origin
+    (the empty solution: x = y = z = 0; lat -90 deg, lon 0 deg, height
+    -6378137 m in llh) null the epoch's position, velocity and sigma
+    columns (``rtk_q``/``gnss_fix`` keep Q), counted in one warning.
+
 Solution lines that do not match the header (wrong number of values, not
 numbers) are skipped and counted in one warning.
 """
@@ -455,6 +461,7 @@ def read(path: Path, opts: Options) -> Recording:
         cols["gnss_age"] = col["age"]
     if "ratio" in col:
         cols["gnss_ratio"] = col["ratio"]
+    _null_no_solution(q, col, lay.posf, cols, warnings)
 
     meta: dict[str, object] = {
         **({"base": {"lat": base[0], "lon": base[1], "h": base[2]}} if base is not None else {}),
@@ -467,6 +474,62 @@ def read(path: Path, opts: Options) -> Recording:
     if prog:
         meta["program"] = prog
     return Recording(str(path), "rtklib", [Stream("rtklib", t, cols)], float(epoch), meta, warnings)
+
+
+#: Heights below this [m] put the position within ~100 km of the Earth's centre: RTKLIB's empty solution
+#: (ECEF 0, 0, 0) written as geodetic coordinates (lat -90 deg, lon 0 deg, height -6378137 m).
+CENTRE_HEIGHT = -6.3e6
+#: Columns that carry a solution's values (nulled where there is no solution); Q, ns, age, ratio stay.
+_SOLUTION_COLS = (
+    "lat",
+    "lon",
+    "h",
+    "h_msl",
+    "vel_n",
+    "vel_e",
+    "vel_d",
+    "std_vel_n",
+    "std_vel_e",
+    "std_vel_d",
+    "gnss_sigma_n",
+    "gnss_sigma_e",
+    "gnss_sigma_v",
+    "gnss_sigma_h",
+    "gnss_sdne",
+    "gnss_sdeu",
+    "gnss_sdun",
+)
+
+
+def _null_no_solution(
+    q: np.ndarray, col: dict[str, np.ndarray], posf: str, cols: dict[str, object], warnings: list[str]
+) -> None:
+    """Null the values of epochs without a solution (in place), counted in one warning.
+
+    RTKLIB's ``SOLQ_NONE`` (Q = 0) is "no solution"; RTKLIB itself skips such epochs when it writes a
+    solution file, but other writers and edited files keep them, and an empty solution holds the ECEF
+    origin (x = y = z = 0, written in llh as lat -90 deg, lon 0 deg, height -6378137 m).  Neither is a
+    position; ``rtk_q``/``gnss_fix`` keep Q as written.
+    """
+    none = q == 0
+    if posf == "xyz":
+        zero = (col["x-ecef"] == 0) & (col["y-ecef"] == 0) & (col["z-ecef"] == 0)
+    else:
+        hh = np.asarray(cols.get("h_msl") if "h_msl" in cols else cols["h"], float)
+        zero = hh < CENTRE_HEIGHT
+    bad = none | zero
+    if not bad.any():
+        return
+    for k in _SOLUTION_COLS:
+        if k in cols:
+            cols[k] = np.where(bad, np.nan, np.asarray(cols[k], float))
+    parts = [f"{int(none.sum())} with Q = 0 (no solution)"] if none.any() else []
+    if (zero & ~none).any():
+        parts.append(f"{int((zero & ~none).sum())} at the Earth's centre (ECEF 0, 0, 0: an empty solution)")
+    warnings.append(
+        f"invalid markers read as null: {' and '.join(parts)}: position, velocity and sigmas null on "
+        f"{int(bad.sum())} of {bad.size} epoch(s)"
+    )
 
 
 _LLH_TO_ECEF = "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84"

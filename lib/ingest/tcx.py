@@ -16,6 +16,16 @@ Columns (units), per Trackpoint
     extension's ``RunCadence``; ``gnss_speed`` [m/s] and ``power`` [W] from
     the ActivityExtension ``TPX/Speed`` and ``TPX/Watts``.
 
+Invalid markers (nulled, counted in one warning)
+    Values the Garmin TrainingCenterDatabase v2 / ActivityExtension v2
+    schemas rule out: a cadence of 255 (``CadenceValue_t`` is an
+    unsignedByte of at most 254; 255 is the FIT uint8 "invalid" that some
+    converters copy through), a heart rate below 1 (``HeartRateInBeatsPerMinute_t``
+    has minInclusive 1: 0 is "no strap"), a latitude outside [-90, 90] or a
+    longitude outside [-180, 180] deg (``DegreesLatitude_t`` /
+    ``DegreesLongitude_t``: the whole Position is nulled), and a negative
+    ``Speed`` (no speed).  Nothing is derived from a nulled value.
+
 Time
     ``Time`` is ISO 8601 (``Z`` or an offset; no zone = UTC).  Trackpoints
     without a time are dropped and counted in a warning; the others stay in
@@ -64,6 +74,19 @@ def _float(text: str | None) -> float:
     return v if math.isfinite(v) else math.nan
 
 
+#: column -> test that a value is one of the schema's invalid markers (see the module docstring)
+_INVALID = {
+    "cadence": lambda v: v > 254,
+    "heart_rate": lambda v: v < 1,
+    "gnss_speed": lambda v: v < 0,
+}
+
+
+def _invalid_position(row: dict[str, float]) -> bool:
+    lat, lon = row.get("lat", math.nan), row.get("lon", math.nan)
+    return (math.isfinite(lat) and abs(lat) > 90.0) or (math.isfinite(lon) and abs(lon) > 180.0)
+
+
 def _time(text: str) -> float | None:
     s = text.strip()
     if s.endswith(("Z", "z")):
@@ -91,6 +114,7 @@ def read(path: Path, opts: Options) -> Recording:
     times: list[float] = []
     rows: list[dict[str, float]] = []
     no_time = 0
+    nulled: dict[str, int] = {}
     for tp in root.iter():
         if _local(tp.tag) != "Trackpoint":
             continue
@@ -115,11 +139,24 @@ def read(path: Path, opts: Options) -> Recording:
         if t is None:
             no_time += 1
             continue
+        for k, bad in _INVALID.items():
+            if k in row and bad(row[k]):
+                del row[k]
+                nulled[k] = nulled.get(k, 0) + 1
+        if _invalid_position(row):
+            row.pop("lat", None)
+            row.pop("lon", None)
+            nulled["lat/lon"] = nulled.get("lat/lon", 0) + 1
         times.append(t)
         rows.append(row)
     warnings = []
     if no_time:
         warnings.append(f"{no_time} Trackpoint(s) without a readable <Time> dropped")
+    if nulled:
+        warnings.append(
+            "invalid markers (cadence 255, heart rate 0, negative speed, position off the globe: no value per the "
+            f"TCX schema) read as null: {', '.join(f'{n} {k}' for k, n in nulled.items())}"
+        )
     if not rows:
         raise InputError(f"{path}: no Trackpoint with a <Time>; expected a recorded TCX activity")
     ts = np.array(times)  # file order: ingest's time-ordering policy sorts and folds repeats (counted)

@@ -25,6 +25,12 @@ Columns (units)
     orientation-only exports give the attitude ``q0..q3``.  Other columns
     (``FreeAcc_*``, status words, ...) are listed in the metadata and not read.
 
+Invalid markers
+    MT Manager writes an empty cell (or ``NaN``) where a packet lacks a
+    value: null.  An orientation that is no rotation (a quaternion of zeros,
+    or a matrix off orthonormal by more than :data:`ROTATION_TOL`) is read as
+    null, counted in one warning, never converted into an attitude.
+
 Frame check
     With ``Acc_*`` and/or ``Mag_*`` beside the orientation, the stated frame
     is verified: the specific force rotated into NED must point up and the
@@ -149,6 +155,9 @@ def _r_gs(table: Any, names: list[str]) -> tuple[np.ndarray | None, list[str]]:
     )
     if all(q in names for q in quat):
         q = np.column_stack([floats(table, c) for c in quat])
+        with np.errstate(invalid="ignore"):
+            norm = np.linalg.norm(q, axis=1)
+        q[~(np.abs(norm - 1.0) <= ROTATION_TOL)] = np.nan  # a zero quaternion is no rotation: null, not normalised
         return np.swapaxes(dcm_from_quat(q), -1, -2), quat  # dcm_from_quat gives the transpose of R(q)
     if len(mats) == 9:
         r = np.empty((table.num_rows, 3, 3))
@@ -159,6 +168,17 @@ def _r_gs(table: Any, names: list[str]) -> tuple[np.ndarray | None, list[str]]:
         a = [np.radians(floats(table, c)) for c in euler]
         return np.swapaxes(dcm_from_euler(*a), -1, -2), list(euler)
     return None, []
+
+
+#: Largest deviation of |q| (or of the matrix from orthonormal) for an orientation to be a rotation.
+ROTATION_TOL = 0.01
+
+
+def _is_rotation(r: np.ndarray) -> np.ndarray:
+    """True per row where R (n, 3, 3) is a rotation within :data:`ROTATION_TOL` (NaN rows: False)."""
+    with np.errstate(invalid="ignore"):
+        err = np.abs(np.einsum("nji,njk->nik", r, r) - np.eye(3)).max(axis=(1, 2))
+    return np.isfinite(err) & (err <= 2 * ROTATION_TOL)
 
 
 def _headings(r_gs: np.ndarray, acc: np.ndarray | None, mag: np.ndarray | None) -> dict[str, tuple[bool, float]]:
@@ -235,6 +255,9 @@ def read(path: Path, opts: Options) -> Recording:
     used.update(ori_cols)
     meta: dict[str, Any] = {"header": header, "time_from": tname, "counter": counter}
     if r_gs is not None:
+        rot = _is_rotation(r_gs)
+        written = np.isfinite(np.column_stack([floats(table, c) for c in ori_cols])).all(axis=1)
+        r_gs[~rot] = np.nan  # no rotation: kept out of the frame check and of the attitude
         stated = header.get("Coordinate system", "").strip().upper()
         frame = stated if stated in FRAMES else "ENU"
         if stated and stated not in FRAMES:
@@ -264,6 +287,11 @@ def read(path: Path, opts: Options) -> Recording:
             )
         m_bo = np.swapaxes(np.einsum("ij,njk->nik", FRAMES[frame], r_gs), -1, -2)
         good = np.isfinite(m_bo).all(axis=(1, 2))
+        if (written & ~rot).any():
+            warnings.append(
+                f"invalid markers read as null: {int((written & ~rot).sum())} orientation(s) that are no rotation "
+                f"(a zero quaternion or matrix, as written before the filter has a solution) in {', '.join(ori_cols[:1])}..."
+            )
         q = np.full((table.num_rows, 4), np.nan)
         if good.any():
             q[good] = quat_from_dcm(m_bo[good])
