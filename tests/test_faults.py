@@ -59,6 +59,26 @@ def test_clipped_from_the_data_and_from_a_range():
     assert not clipped(np.full((5, 3), np.nan)).any()
 
 
+def test_a_noise_free_quantised_peak_inside_the_range_is_not_clipping():
+    # issue 39: an ideal (noise-free) sensor quantised to 16 bits over +-2000 deg/s repeats the value at the top
+    # of a slow peak; taking that plateau for the range flagged every larger sample of every axis
+    t = np.arange(0.0, 10.0, 0.01)
+    lsb = np.radians(4000.0) / 2**16  # [rad/s]
+    # x: the largest reading, a steady spin-up (its top not repeated); y: a slow 0.6 rad/s peak; z: a drift
+    w = np.stack([0.23 * t, 0.6 * np.exp(-(((t - 7.0) / 0.8) ** 2)), 0.1 * t], -1)
+    q = np.round(w / lsb) * lsb
+    top = np.abs(q[:, 1]) >= np.abs(q[:, 1]).max()
+    assert top.sum() >= 3  # the plateau that fooled the data-driven rule
+    assert not clipped(q).any()
+    # a real clip still is one, also where the axes' levels differ by a per-axis scale error (2 %)
+    c = np.clip(q * [30.0, 1.0, 1.0], -60.0, 60.0)
+    c[:, 1] = np.clip(q[:, 1] * 200.0, -60.0 * 1.02, 60.0 * 1.02)
+    m = clipped(c)
+    assert m[:, 0].sum() == (np.abs(c[:, 0]) >= 60.0).sum() > 3
+    assert m[:, 1].sum() == (np.abs(c[:, 1]) >= 60.0).sum() > 3
+    assert not m[:, 2].any()
+
+
 def test_mag_disturbance_detected_against_the_reference():
     from sportfusion.climbing.sim import BoulderConfig, simulate_boulder
 
