@@ -89,7 +89,8 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
                        const double *w_pos, const int64_t *w_code, const double *pos0, const double *psi0,
                        const int64_t *lab0, const int64_t *which, double *hist, double *hist_w, int64_t *hist_lab,
                        int64_t *anc, double *out_pos, int64_t *out_code, double *out_prob, double *out_yaw,
-                       double *out_ev, double *start_ev, int64_t *resamples, double *work, int64_t *iwork) {
+                       double *out_ev, double *start_ev, int64_t *resamples, double *work, int64_t *iwork,
+                       PyObject *refill, int64_t blk) {
     const int64_t n = d->n, m = d->m, k0 = d->k0, nc = d->ncodes;
     int64_t ns = d->nstrata;
     /* work: pos (3m), psi (m), lw (m), ws (m), cum (m), new pos (3m), new psi (m), sums (nc * (ns + 1)), and per
@@ -116,8 +117,13 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
     *resamples = 0;
     for (int64_t k = k0; k < n; k++) {
         if (k > k0) { /* eq 17 from k - 1: pos + Rot_up(psi) step + noise, the yaw of step k - 1 */
-            const int64_t j = k - 1 - k0;
-            const double *z = normal_pos + 3 * m * j, *L = chol + 9 * j, *us = ustep + 3 * (k - 1);
+            const int64_t j = k - 1 - k0, jj = refill ? j % blk : j; /* jj: the row of the noise buffers */
+            if (refill && jj == 0) { /* the caller draws the noise of steps j .. j + blk - 1 into the buffers */
+                PyObject *r = PyObject_CallFunction(refill, "L", (long long)j);
+                if (!r) return -2;
+                Py_DECREF(r);
+            }
+            const double *z = normal_pos + 3 * m * jj, *L = chol + 9 * j, *us = ustep + 3 * (k - 1);
             const double *hz = horiz + 3 * (k - 1), *ks = kstep + 3 * (k - 1);
             for (int64_t i = 0; i < m; i++) {
                 double c = cos(psi[i]), s = sin(psi[i]);
@@ -126,7 +132,7 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
                     double e = L[3 * a] * zi[0] + L[3 * a + 1] * zi[1] + L[3 * a + 2] * zi[2] + us[a];
                     pos[3 * i + a] += e + hz[a] * c + ks[a] * s;
                 }
-                psi[i] += add_psi[m * j + i];
+                psi[i] += add_psi[m * jj + i];
             }
         }
         double *hk = hist + 4 * m * k;
@@ -270,14 +276,24 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
 
 static PyObject *py_forward(PyObject *self, PyObject *args) {
     Dims d;
-    PyObject *o[31];
-    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOO", &d.n, &d.m, &d.k0, &d.ncodes, &d.nowhere,
-                          &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other, &d.ess_fraction,
-                          &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
-                          &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20], &o[21], &o[22], &o[23],
-                          &o[24], &o[25], &o[26], &o[27], &o[28], &o[29], &o[30]))
+    PyObject *o[31], *refill = Py_None;
+    long long blk = 0;
+    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOO|OL", &d.n, &d.m, &d.k0, &d.ncodes,
+                          &d.nowhere, &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other,
+                          &d.ess_fraction, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9],
+                          &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20],
+                          &o[21], &o[22], &o[23], &o[24], &o[25], &o[26], &o[27], &o[28], &o[29], &o[30], &refill,
+                          &blk))
         return NULL;
     const int64_t n = d.n, m = d.m, nk = n - 1 - d.k0 > 0 ? n - 1 - d.k0 : 0;
+    /* refill (optional): a callable drawing the noise of blk steps from step j into normal_pos (blk, m, 3) and
+     * add_psi (blk, m), called when the loop reaches j = 0, blk, 2 blk, ... (the GIL is kept for it) */
+    if (refill == Py_None) refill = NULL;
+    if (refill && (!PyCallable_Check(refill) || blk < 1)) {
+        PyErr_SetString(PyExc_ValueError, "pf_forward: refill must be callable with a block of at least 1 step");
+        return NULL;
+    }
+    const int64_t rows = refill ? (blk < nk ? blk : nk) : nk; /* steps the noise buffers hold */
     if (n < 1 || m < 2 || d.k0 < 0 || d.k0 >= n || d.nstrata < 1 || d.nr < 1 || d.nw < 1 || d.ncodes < 1) {
         PyErr_SetString(PyExc_ValueError, "pf_forward: bad dimensions");
         return NULL;
@@ -289,7 +305,7 @@ static PyObject *py_forward(PyObject *self, PyObject *args) {
         "late",  "temper",  "r_pos",      "r_code",  "w_pos",   "w_code",  "pos0",     "psi0",     "lab0",
         "which", "hist",    "hist_w",     "hist_lab", "anc",    "out_pos", "out_code", "out_prob", "out_yaw",
         "out_ev", "start_ev", "work",     "iwork"};
-    Py_ssize_t cnt[31] = {3 * n1, 3 * n1, 3 * m * nk, 9 * nk, 3 * n1, m * nk, n, n, n, n, n, 3 * d.nr, d.nr,
+    Py_ssize_t cnt[31] = {3 * n1, 3 * n1, 3 * m * rows, 9 * nk, 3 * n1, m * rows, n, n, n, n, n, 3 * d.nr, d.nr,
                           3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * n, m * n, m * n, m * n1, 3 * n, n, n, n, n,
                           d.nstrata, 11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata};
     Buf b[31];
@@ -320,12 +336,19 @@ static PyObject *py_forward(PyObject *self, PyObject *args) {
         void *p[31];
         for (int i = 0; i < 31; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
         int64_t resamples = 0, merged;
-        Py_BEGIN_ALLOW_THREADS
-        merged = forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
-                         p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26],
-                         p[27], p[28], &resamples, p[29], p[30]);
-        Py_END_ALLOW_THREADS
-        res = Py_BuildValue("LL", (long long)merged, (long long)resamples);
+#define PF_FORWARD(cb)                                                                                              \
+    forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14], p[15], \
+            p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], &resamples,    \
+            p[29], p[30], cb, blk)
+        if (refill) { /* the callback needs the GIL: the loop keeps it */
+            merged = PF_FORWARD(refill);
+        } else {
+            Py_BEGIN_ALLOW_THREADS
+            merged = PF_FORWARD(NULL);
+            Py_END_ALLOW_THREADS
+        }
+#undef PF_FORWARD
+        res = merged == -2 ? NULL : Py_BuildValue("LL", (long long)merged, (long long)resamples);
     }
     release(b, 31);
     return res;

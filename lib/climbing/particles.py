@@ -91,11 +91,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.climbing import _pfblocks
 from sportfusion.climbing._native import native
 from sportfusion.core.errors import InputError
 from sportfusion.core.stats import unique
 from sportfusion.estimators.particles import (
-    backward_draws,
     backward_simulation,
     backward_simulation_gaussian,
     systematic_resample,
@@ -442,8 +442,12 @@ def run_particle_filter(
     # all process noise up front: one draw, scaled per step, plus the step's along-up part; coordinates
     # first (nk, 3, m), so that the arithmetic below runs along the particles
     nk = max(n - 1 - k0, 0)
-    normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
-    add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
+    pf_c = native()
+    if pf_c is None:
+        normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
+        add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
+    else:  # the same numbers, drawn a block of steps at a time when the C loop reaches it
+        noise = _pfblocks.NoiseBlocks(rng, nk, m, model.yaw_sigma[k0 : n - 1], _pfblocks.BLOCK)
     u_res = rng.random(n)
     horiz = model.horiz
     grips = np.flatnonzero(grip)
@@ -453,7 +457,6 @@ def run_particle_filter(
     # for resampling (or where the start hypotheses merge); the block ends there and the next starts from
     # the resampled particles.  A block spans a number of grips: few after a resampling (the next often
     # follows soon), more and more after none.
-    pf_c = native()
     if pf_c is not None:  # the same loop, step by step in C (the numpy blocks below are its reference)
         out_code = np.empty(n, dtype=np.int64)
         c64 = np.ascontiguousarray
@@ -462,8 +465,8 @@ def run_particle_filter(
             n, m, k0, table.size, nowhere, len(strata), r_ids.size, w_ids.size,
             p.hold.radius, p.hold.sigma, p.hold.log_peak, p.hold.log_elsewhere, p.ess_fraction,
             c64(horiz) if n > 1 else np.zeros(3), c64(model.kstep) if n > 1 else np.zeros(3),
-            normal_pos, c64(model.chol[k0 : n - 1]) if nk else np.zeros(9),
-            c64(model.ustep) if n > 1 else np.zeros(3), c64(add_psi), u_res,
+            noise.normal, c64(model.chol[k0 : n - 1]) if nk else np.zeros(9),
+            c64(model.ustep) if n > 1 else np.zeros(3), noise.psi, u_res,
             grip.astype(np.int64), grip_end.astype(np.int64), late.astype(np.int64),
             None if temper is None else c64(temper, dtype=np.float64),
             c64(r_pos, dtype=np.float64), r_code.astype(np.int64),
@@ -472,8 +475,9 @@ def run_particle_filter(
             hist, hist_w, hist_lab, anc if n > 1 else np.zeros(m, dtype=np.int64),
             out_pos, out_code, out_prob, out_yaw, out_ev, start_ev if len(strata) > 1 else np.zeros(1),
             np.empty(11 * m + table.size * (len(strata) + 1) + 5 * len(strata)),
-            np.empty(6 * m + len(strata), dtype=np.int64),
+            np.empty(6 * m + len(strata), dtype=np.int64), noise if nk else None, noise.block,
         )  # fmt: skip
+        del noise
         out_lab[k0:] = table[out_code[k0:]]
         if len(strata) > 1 and merged_at >= 0:
             strata = [slice(None)]
@@ -565,6 +569,7 @@ def run_particle_filter(
             else:
                 want = min(4 * want, 64)
             k = stop
+    normal_pos = add_psi = add_pos = None  # the process noise: the smoother does not need it
     res = PFResult(
         k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples, out_ev, merged_at, start_ev
     )
@@ -582,10 +587,20 @@ def run_particle_filter(
         pf_c = native()
         if p.smoother == "backward" and pf_c is not None and n - 1 > k0:
             # the same draws, tests and clusters in C: the trajectories' particles, then their clusters per step
-            path = _backward_path_c(pf_c, hist, hist_w, anc, model, k0, rng, p.smoother_moves)
-            code = np.empty(n, dtype=np.int64)
-            pf_c.path_clusters(n, m, k0, table.size, path, hist, hist_lab, sp, code, sprob, syaw)
-            code = code[rows]
+            code = _pfblocks.smooth_clusters_c(
+                pf_c,
+                hist,
+                hist_w,
+                hist_lab,
+                anc,
+                model,
+                k0,
+                rng,
+                p.smoother_moves,
+                table.size,
+                (sp, sprob, syaw),
+                _pfblocks.BLOCK,
+            )
         else:
             if p.smoother == "ffbsm":
                 ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
@@ -597,30 +612,6 @@ def run_particle_filter(
         sl[rows] = table[code]
         res.smooth_pos, res.smooth_label, res.smooth_prob, res.smooth_yaw = sp, sl, sprob, syaw
     return res
-
-
-def _backward_path_c(  # noqa: ANN202
-    ext,  # noqa: ANN001
-    state: np.ndarray,
-    w: np.ndarray,
-    anc: np.ndarray,
-    model: _Model,
-    k0: int,
-    rng: np.random.Generator,
-    moves: int,
-):
-    """The trajectories' particles (n - k0, m) of :func:`_backward`'s backward simulation, in C (the extension
-    ``ext``): the same draws and acceptance tests, the whitened distances formed per trajectory."""
-    n, m = w.shape
-    j, cum, u, log_u = backward_draws(w, rng, k0, moves)
-    path = np.empty((n - k0, m), dtype=np.int64)
-    c64 = np.ascontiguousarray
-    ext.backward_paths(
-        n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
-        c64(state), c64(model.horiz), c64(model.kstep), c64(model.ustep),
-        c64(model.chol), c64(model.yaw_sigma), path,
-    )  # fmt: skip
-    return path
 
 
 def _backward(

@@ -15,6 +15,7 @@ __all__ = [
     "effective_size",
     "systematic_resample",
     "backward_draws",
+    "BackwardDraws",
     "backward_simulation",
     "backward_simulation_gaussian",
     "path_weights",
@@ -85,6 +86,56 @@ def backward_draws(
     with np.errstate(divide="ignore"):
         log_u = np.log(rng.random((steps, moves, m)))
     return b, cum, u, log_u
+
+
+class BackwardDraws:
+    """The draws of :func:`backward_draws` a block of steps at a time: the same numbers, without holding the
+    ``(steps, moves, m)`` uniforms and cumulative weights of the whole run.
+
+    The trajectories' ends :attr:`end` are drawn at construction, and ``rng`` is left where
+    :func:`backward_draws` leaves it.  A PCG64 generator (numpy's default) gives one uniform per 64-bit output,
+    so a block's uniforms come from a copy of the generator jumped ahead to them; any other generator's
+    uniforms are drawn whole at construction.
+
+    Parameters
+    ----------
+    w, rng, k0, moves
+        As for :func:`backward_draws`.
+    """
+
+    def __init__(self, w: np.ndarray, rng: np.random.Generator, k0: int, moves: int) -> None:
+        n, m = w.shape
+        self.w, self.k0, self.moves, self.m = w, k0, moves, m
+        self.end = systematic_resample(w[n - 1], float(rng.random()))
+        self.steps = max(n - 1 - k0, 0)
+        size = self.steps * moves * m
+        bg = rng.bit_generator
+        self._state: dict | None = None
+        if isinstance(bg, np.random.PCG64):
+            self._state = bg.state
+            bg.advance(2 * size)  # past the uniforms and the acceptance uniforms
+        else:
+            self._u = rng.random((self.steps, moves, m))
+            self._v = rng.random((self.steps, moves, m))
+
+    def _uniforms(self, first: int, rows: int) -> np.ndarray:
+        bg = np.random.PCG64()
+        bg.state = self._state
+        bg.advance(first * self.moves * self.m)
+        return np.random.Generator(bg).random((rows, self.moves, self.m))
+
+    def rows(self, r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``cum``, ``u`` and ``log_u`` of :func:`backward_draws` for its rows ``r0 .. r1 - 1`` (steps
+        ``k0 + r0 .. k0 + r1 - 1``)."""
+        cum = np.cumsum(self.w[self.k0 + r0 : self.k0 + r1], axis=1)
+        cum /= cum[:, -1:]
+        cum[:, -1] = 1.0
+        if self._state is None:
+            u, v = self._u[r0:r1], self._v[r0:r1]
+        else:
+            u, v = self._uniforms(r0, r1 - r0), self._uniforms(self.steps + r0, r1 - r0)
+        with np.errstate(divide="ignore"):
+            return cum, u, np.log(v)
 
 
 def backward_simulation(
