@@ -143,7 +143,7 @@ def test_complementary_filter_loop_equals_the_python_loop(engines) -> None:
 def test_bad_dimensions_are_refused() -> None:
     z = np.zeros(3)
     with pytest.raises(ValueError, match="bad dimensions"):
-        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 31))
+        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 31), None, 1, 0, 1, z)
     with pytest.raises(ValueError, match="bad dimensions"):
         C.backward_paths(1, 10, 0, 1, *([z] * 12))
     with pytest.raises(ValueError, match="expected"):  # a wrong length: the C side checks every buffer
@@ -267,8 +267,9 @@ def test_c_path_in_blocks_equals_the_whole_run(engines, monkeypatch: pytest.Monk
 
 
 @needs_c
-def test_c_forward_refuses_a_bad_noise_callback() -> None:
-    """The noise callback's error comes back as the call's exception; a block below 1 step is refused."""
+def test_c_forward_refuses_a_bad_noise_callback_or_block() -> None:
+    """The noise callback's error comes back as the call's exception; a noise block below 1 step and a block of
+    steps the loop cannot resume at are refused."""
     t, v, cov, grip, route, start = _ladder()
     args = {}
 
@@ -291,7 +292,32 @@ def test_c_forward_refuses_a_bad_noise_callback() -> None:
     def broken(j: int) -> None:
         raise RuntimeError(f"no noise for step {j}")
 
+    refill, block, kb, ke, state = a[-5:]
+    assert (kb, ke) == (int(np.argmax(grip)), t.size) and block >= 1  # one block over this short trial
     with pytest.raises(RuntimeError, match="no noise for step 0"):
-        C.forward(*a[:-2], broken, a[-1])
+        C.forward(*a[:-5], broken, block, kb, ke, state)
     with pytest.raises(ValueError, match="refill"):
-        C.forward(*a[:-1], 0)
+        C.forward(*a[:-5], refill, 0, kb, ke, state)
+    # a later block must start at a noise block, with the noise drawn by a callback; the block within the trial
+    for bad in (
+        (None, block, kb + 1, ke),
+        (refill, 4, kb + 2, ke),
+        (refill, block, kb, ke + 1),
+        (refill, block, kb, kb),
+    ):
+        with pytest.raises(ValueError, match="bad block"):
+            C.forward(*a[:-5], *bad, state)
+
+
+@needs_c
+def test_c_filter_with_ffbsm_keeps_the_whole_history(engines, monkeypatch: pytest.MonkeyPatch) -> None:
+    """FFBSm reads the filter's whole history: the C loop then runs as one block over full-length buffers
+    (blocks of 5 steps asked for), and its smoother's outputs equal the numpy path's."""
+    from sportfusion.climbing import _pfblocks
+
+    monkeypatch.setattr(_pfblocks, "BLOCK", 5)
+    t, v, cov, grip, route, start = _ladder(0.12)
+    params = PFParams(particles=40, smoother="ffbsm", ess_fraction=0.9)
+    out = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=2))
+    _same(out["numpy"], out["c"])
+    assert out["c"].resamples > 0 and np.isfinite(out["c"].smooth_pos[out["c"].k0 :]).all()

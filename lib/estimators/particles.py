@@ -99,15 +99,18 @@ class BackwardDraws:
 
     Parameters
     ----------
-    w, rng, k0, moves
+    last : ndarray (m,)
+        The filter's weights at the last step (``w[n - 1]`` of :func:`backward_draws`).
+    steps : int
+        ``n - 1 - k0``: the steps smoothed before the last.
+    rng, moves
         As for :func:`backward_draws`.
     """
 
-    def __init__(self, w: np.ndarray, rng: np.random.Generator, k0: int, moves: int) -> None:
-        n, m = w.shape
-        self.w, self.k0, self.moves, self.m = w, k0, moves, m
-        self.end = systematic_resample(w[n - 1], float(rng.random()))
-        self.steps = max(n - 1 - k0, 0)
+    def __init__(self, last: np.ndarray, steps: int, rng: np.random.Generator, moves: int) -> None:
+        m = last.size
+        self.steps, self.moves, self.m = max(steps, 0), moves, m
+        self.end = systematic_resample(last, float(rng.random()))
         size = self.steps * moves * m
         bg = rng.bit_generator
         self._state: dict | None = None
@@ -124,10 +127,10 @@ class BackwardDraws:
         bg.advance(first * self.moves * self.m)
         return np.random.Generator(bg).random((rows, self.moves, self.m))
 
-    def rows(self, r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def rows(self, r0: int, r1: int, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``cum``, ``u`` and ``log_u`` of :func:`backward_draws` for its rows ``r0 .. r1 - 1`` (steps
-        ``k0 + r0 .. k0 + r1 - 1``)."""
-        cum = np.cumsum(self.w[self.k0 + r0 : self.k0 + r1], axis=1)
+        ``k0 + r0 .. k0 + r1 - 1``), given the filter's weights ``w`` (r1 - r0, m) of those steps."""
+        cum = np.cumsum(w, axis=1)
         cum /= cum[:, -1:]
         cum[:, -1] = 1.0
         if self._state is None:
