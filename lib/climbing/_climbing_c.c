@@ -82,7 +82,9 @@ typedef struct {
 
 /* The forward pass: particles.run_particle_filter's numpy loop over blocks of steps, here step by step (the same
  * prediction, likelihood, strata, merge and resampling, the same random numbers).  Returns the merge step (-1:
- * never; k0 with one stratum), sets *resamples. */
+ * never; k0 with one stratum; -2: the refill callback raised), sets *resamples.  Runs steps kb .. ke - 1 and
+ * leaves in state (with work, iwork and start_ev) what a call for the next block resumes from
+ * (climbing/_pfblocks.py: the smoother runs the blocks again, so that no history of the whole run is held). */
 static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *normal_pos,
                        const double *chol, const double *ustep, const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
                        const int64_t *late, const double *temper, const double *r_pos, const int64_t *r_code,
