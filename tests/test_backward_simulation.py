@@ -169,3 +169,20 @@ def test_blocks_agree_with_steps_when_proposals_are_often_accepted(monkeypatch: 
     monkeypatch.setattr(particles, "_STEPWISE", False)
     got = backward_simulation_gaussian(w, anc, a, b, np.random.default_rng(9), k0=3, moves=1)
     assert np.array_equal(got, ref)
+
+
+@pytest.mark.parametrize("kind", [np.random.PCG64, np.random.Philox])
+def test_backward_draws_in_blocks_are_the_same_numbers(kind: type) -> None:
+    """BackwardDraws (the draws a block of steps at a time; PCG64 jumps ahead) gives backward_draws' numbers
+    and leaves the generator where backward_draws does."""
+    rng = np.random.default_rng(2)
+    w = rng.random((40, 6))
+    w /= w.sum(axis=1, keepdims=True)
+    whole_rng, block_rng = np.random.Generator(kind(9)), np.random.Generator(kind(9))
+    end, cum, u, log_u = particles.backward_draws(w, whole_rng, 3, 2)
+    draws = particles.BackwardDraws(w[-1], 40 - 1 - 3, block_rng, 2)
+    assert np.array_equal(draws.end, end)
+    assert whole_rng.random() == block_rng.random()
+    for r0, r1 in ((30, 36), (0, 1), (5, 30)):
+        c, uu, lu = draws.rows(r0, r1, w[3 + r0 : 3 + r1])
+        assert np.array_equal(c, cum[r0:r1]) and np.array_equal(uu, u[r0:r1]) and np.array_equal(lu, log_u[r0:r1])

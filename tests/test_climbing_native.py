@@ -143,7 +143,7 @@ def test_complementary_filter_loop_equals_the_python_loop(engines) -> None:
 def test_bad_dimensions_are_refused() -> None:
     z = np.zeros(3)
     with pytest.raises(ValueError, match="bad dimensions"):
-        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 31))
+        C.forward(0, 10, 0, 1, 0, 1, 1, 1, 0.1, 0.05, 1.0, 0.0, 0.5, *([z] * 31), None, 1, 0, 1, z)
     with pytest.raises(ValueError, match="bad dimensions"):
         C.backward_paths(1, 10, 0, 1, *([z] * 12))
     with pytest.raises(ValueError, match="expected"):  # a wrong length: the C side checks every buffer
@@ -236,3 +236,88 @@ def test_transition_blocks_equal_the_numpy_ones(engines) -> None:
         C.transition_blocks(n - 1, prob.dt[:-1], gyr, acc, r, st.v, st.b, prob.sig_dyn, prob.g_world, *outs)
     with pytest.raises(ValueError, match="expected"):
         C.normal_blocks(n - 1, la.ja, la.jb, la.jc, la.r_dyn, *(np.empty(3) for _ in range(6)))
+
+
+@needs_c
+@pytest.mark.parametrize(
+    "params",
+    [
+        PFParams(particles=60, ess_fraction=0.97),
+        PFParams(particles=50, separate_starts=False, smoother_moves=3, ess_fraction=0.9),
+    ],
+)
+def test_c_path_in_blocks_equals_the_whole_run(engines, monkeypatch: pytest.MonkeyPatch, params: PFParams) -> None:
+    """The C path draws its process noise and runs its smoother a block of steps at a time (issue 38's memory):
+    blocks of 1 and 7 steps give the outputs of one block over the whole trial to the bit, and the numpy
+    reference's (which draws everything at once) to rounding."""
+    from sportfusion.climbing import _pfblocks
+
+    t, v, cov, grip, route, start = _ladder(0.12)
+    runs = {}
+    for block in (1, 7, 10**9):
+        monkeypatch.setattr(_pfblocks, "BLOCK", block)
+        runs[block] = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=3))
+    whole = runs[10**9]["c"]
+    for block in (1, 7):
+        c = runs[block]["c"]
+        for name in ("pos", "label", "prob", "yaw", "log_evidence", "smooth_pos", "smooth_label", "smooth_prob"):
+            assert np.array_equal(getattr(c, name), getattr(whole, name), equal_nan=True), (block, name)
+        _same(runs[block]["numpy"], c)
+    assert whole.resamples > 0 and t.size > 100
+
+
+@needs_c
+def test_c_forward_refuses_a_bad_noise_callback_or_block() -> None:
+    """The noise callback's error comes back as the call's exception; a noise block below 1 step and a block of
+    steps the loop cannot resume at are refused."""
+    t, v, cov, grip, route, start = _ladder()
+    args = {}
+
+    class Spy:
+        def forward(self, *a):  # noqa: ANN002, ANN202
+            args["a"] = list(a)
+            return C.forward(*a)
+
+        def __getattr__(self, name: str):  # noqa: ANN204
+            return getattr(C, name)
+
+    saved = _native._NATIVE
+    _native._NATIVE = Spy()
+    try:
+        pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=PFParams(particles=20), seed=1, smooth=False)
+    finally:
+        _native._NATIVE = saved
+    a = args["a"]
+
+    def broken(j: int) -> None:
+        raise RuntimeError(f"no noise for step {j}")
+
+    refill, block, kb, ke, state = a[-5:]
+    assert (kb, ke) == (int(np.argmax(grip)), t.size) and block >= 1  # one block over this short trial
+    with pytest.raises(RuntimeError, match="no noise for step 0"):
+        C.forward(*a[:-5], broken, block, kb, ke, state)
+    with pytest.raises(ValueError, match="refill"):
+        C.forward(*a[:-5], refill, 0, kb, ke, state)
+    # a later block must start at a noise block, with the noise drawn by a callback; the block within the trial
+    for bad in (
+        (None, block, kb + 1, ke),
+        (refill, 4, kb + 2, ke),
+        (refill, block, kb, ke + 1),
+        (refill, block, kb, kb),
+    ):
+        with pytest.raises(ValueError, match="bad block"):
+            C.forward(*a[:-5], *bad, state)
+
+
+@needs_c
+def test_c_filter_with_ffbsm_keeps_the_whole_history(engines, monkeypatch: pytest.MonkeyPatch) -> None:
+    """FFBSm reads the filter's whole history: the C loop then runs as one block over full-length buffers
+    (blocks of 5 steps asked for), and its smoother's outputs equal the numpy path's."""
+    from sportfusion.climbing import _pfblocks
+
+    monkeypatch.setattr(_pfblocks, "BLOCK", 5)
+    t, v, cov, grip, route, start = _ladder(0.12)
+    params = PFParams(particles=40, smoother="ffbsm", ess_fraction=0.9)
+    out = engines(lambda: pf.run_particle_filter(t, v, cov, grip, route, start, UP, params=params, seed=2))
+    _same(out["numpy"], out["c"])
+    assert out["c"].resamples > 0 and np.isfinite(out["c"].smooth_pos[out["c"].k0 :]).all()

@@ -241,3 +241,27 @@ def test_disturbance_model_cuts_the_move_errors_of_a_disturbed_wall(seed):
     # measured: seed 0 0.373 -> 0.065 m, seed 1 0.053 -> 0.018 m
     assert rms(ours) < 0.5 * rms(paper)
     assert np.median(ours) < np.median(paper)
+
+
+def test_solve_forms_the_optimum_again_when_its_last_candidate_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """solve() drops each linearization once its normal equations are formed (issue 38's memory); where the last
+    candidate is refused it linearizes the optimum again: the cost and factors are those of the optimum."""
+    prob, st = _problem(n=40)
+    real = tr.linearize
+    calls = []
+
+    def refuse_later(p: tr.Problem, s: tr.State, jacobian: bool = True) -> tr.Linearization:
+        lin = real(p, s, jacobian)
+        calls.append(s)
+        if len(calls) >= 3 and s is not calls[1]:  # candidates after the first: worse than anything
+            lin.r_dyn = lin.r_dyn + 1e6
+        return lin
+
+    monkeypatch.setattr(tr, "linearize", refuse_later)
+    opt, cost, (xb, s, _), it = tr.solve(prob, st)
+    monkeypatch.setattr(tr, "linearize", real)
+    assert it == 2 and calls[-1] is opt  # one accepted step, then refused ones, then the optimum again
+    lin = tr.linearize(prob, opt)
+    assert cost == lin.cost
+    xb_ref, s_ref, _ = tr.solve_step(tr.normal_equations(prob, lin), 1e-12)[2]
+    assert np.array_equal(xb, xb_ref) and np.array_equal(s, s_ref)

@@ -82,14 +82,17 @@ typedef struct {
 
 /* The forward pass: particles.run_particle_filter's numpy loop over blocks of steps, here step by step (the same
  * prediction, likelihood, strata, merge and resampling, the same random numbers).  Returns the merge step (-1:
- * never; k0 with one stratum), sets *resamples. */
+ * never; k0 with one stratum; -2: the refill callback raised), sets *resamples.  Runs steps kb .. ke - 1 and
+ * leaves in state (with work, iwork and start_ev) what a call for the next block resumes from
+ * (climbing/_pfblocks.py: the smoother runs the blocks again, so that no history of the whole run is held). */
 static int64_t forward(const Dims *d, const double *horiz, const double *kstep, const double *normal_pos,
                        const double *chol, const double *ustep, const double *add_psi, const double *u_res, const int64_t *grip, const int64_t *grip_end,
                        const int64_t *late, const double *temper, const double *r_pos, const int64_t *r_code,
                        const double *w_pos, const int64_t *w_code, const double *pos0, const double *psi0,
                        const int64_t *lab0, const int64_t *which, double *hist, double *hist_w, int64_t *hist_lab,
                        int64_t *anc, double *out_pos, int64_t *out_code, double *out_prob, double *out_yaw,
-                       double *out_ev, double *start_ev, int64_t *resamples, double *work, int64_t *iwork) {
+                       double *out_ev, double *start_ev, int64_t *resamples, double *work, int64_t *iwork,
+                       PyObject *refill, int64_t blk, int64_t kb, int64_t ke, double *state) {
     const int64_t n = d->n, m = d->m, k0 = d->k0, nc = d->ncodes;
     int64_t ns = d->nstrata;
     /* work: pos (3m), psi (m), lw (m), ws (m), cum (m), new pos (3m), new psi (m), sums (nc * (ns + 1)), and per
@@ -103,21 +106,32 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
     int64_t merged_at = ns > 1 ? -1 : k0, best = 0;
     int fresh = 1; /* the particles were resampled at the last step: normalise their weights again */
     double log_z = 0.0;
-    memcpy(pos, pos0, 3 * m * sizeof(double));
-    memcpy(psi, psi0, m * sizeof(double));
-    memcpy(lab, lab0, m * sizeof(int64_t));
-    for (int64_t h = 0; h < ns; h++) counts[h] = 0;
-    for (int64_t i = 0; i < m; i++) {
-        st[i] = ns > 1 ? which[i] : 0;
-        counts[st[i]]++;
-        lw[i] = 0.0;
+    if (kb > k0) { /* a later block: the filter's state where the last one stopped (work, iwork, start_ev, state) */
+        ns = (int64_t)state[0], merged_at = (int64_t)state[1], best = (int64_t)state[2];
+        fresh = (int)state[3], log_z = state[4], *resamples = (int64_t)state[5];
     }
-    for (int64_t h = 0; h < ns; h++) start_ev[h] = 0.0, lsum[h] = log((double)counts[h]);
-    *resamples = 0;
-    for (int64_t k = k0; k < n; k++) {
+    for (int64_t k = kb; k < ke; k++) {
+        if (kb == k0 && k == k0) {
+            memcpy(pos, pos0, 3 * m * sizeof(double));
+            memcpy(psi, psi0, m * sizeof(double));
+            memcpy(lab, lab0, m * sizeof(int64_t));
+            for (int64_t h = 0; h < ns; h++) counts[h] = 0;
+            for (int64_t i = 0; i < m; i++) {
+                st[i] = ns > 1 ? which[i] : 0;
+                counts[st[i]]++;
+                lw[i] = 0.0;
+            }
+            for (int64_t h = 0; h < ns; h++) start_ev[h] = 0.0, lsum[h] = log((double)counts[h]);
+            *resamples = 0;
+        }
         if (k > k0) { /* eq 17 from k - 1: pos + Rot_up(psi) step + noise, the yaw of step k - 1 */
-            const int64_t j = k - 1 - k0;
-            const double *z = normal_pos + 3 * m * j, *L = chol + 9 * j, *us = ustep + 3 * (k - 1);
+            const int64_t j = k - 1 - k0, jj = refill ? j % blk : j; /* jj: the row of the noise buffers */
+            if (refill && jj == 0) { /* the caller draws the noise of steps j .. j + blk - 1 into the buffers */
+                PyObject *r = PyObject_CallFunction(refill, "L", (long long)j);
+                if (!r) return -2;
+                Py_DECREF(r);
+            }
+            const double *z = normal_pos + 3 * m * jj, *L = chol + 9 * j, *us = ustep + 3 * (k - 1);
             const double *hz = horiz + 3 * (k - 1), *ks = kstep + 3 * (k - 1);
             for (int64_t i = 0; i < m; i++) {
                 double c = cos(psi[i]), s = sin(psi[i]);
@@ -126,10 +140,10 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
                     double e = L[3 * a] * zi[0] + L[3 * a + 1] * zi[1] + L[3 * a + 2] * zi[2] + us[a];
                     pos[3 * i + a] += e + hz[a] * c + ks[a] * s;
                 }
-                psi[i] += add_psi[m * j + i];
+                psi[i] += add_psi[m * jj + i];
             }
         }
-        double *hk = hist + 4 * m * k;
+        double *hk = hist + 4 * m * (k - kb); /* the history buffers hold the block's steps kb .. ke - 1 */
         for (int64_t i = 0; i < m; i++) {
             hk[4 * i] = pos[3 * i];
             hk[4 * i + 1] = pos[3 * i + 1];
@@ -137,7 +151,7 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
             hk[4 * i + 3] = psi[i];
         }
         int g = grip[k] != 0;
-        double *hw = hist_w + m * k;
+        double *hw = hist_w + m * (k - kb + 1); /* hist_w's row 0: the weights of step kb - 1 */
         if (g) { /* eq 18: the best hold or "elsewhere", per particle */
             const double *cen = late[k] ? w_pos : r_pos;
             const int64_t *code = late[k] ? w_code : r_code;
@@ -195,7 +209,7 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
             memcpy(hw, hw - m, m * sizeof(double));
         }
         fresh = 0;
-        memcpy(hist_lab + m * k, lab, m * sizeof(int64_t));
+        memcpy(hist_lab + m * (k - kb), lab, m * sizeof(int64_t));
         double prob = sums[best], mx = 0.0, my = 0.0, mz = 0.0, myaw = 0.0;
         for (int64_t i = 0; i < m; i++)
             if (lab[i] == best) {
@@ -252,7 +266,7 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
                 for (int64_t i = 0; i < sz; i++) lw[mem[i]] = keep;
             }
         }
-        if (k < n - 1) memcpy(anc + m * k, idx, m * sizeof(int64_t));
+        if (k < n - 1) memcpy(anc + m * (k - kb), idx, m * sizeof(int64_t));
         for (int64_t i = 0; i < m; i++) {
             int64_t s = idx[i];
             npos[3 * i] = pos[3 * s], npos[3 * i + 1] = pos[3 * s + 1], npos[3 * i + 2] = pos[3 * s + 2];
@@ -265,43 +279,66 @@ static int64_t forward(const Dims *d, const double *horiz, const double *kstep, 
         (*resamples)++;
         fresh = 1;
     }
+    state[0] = (double)ns, state[1] = (double)merged_at, state[2] = (double)best;
+    state[3] = (double)fresh, state[4] = log_z, state[5] = (double)*resamples;
     return merged_at;
 }
 
 static PyObject *py_forward(PyObject *self, PyObject *args) {
     Dims d;
-    PyObject *o[31];
-    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOO", &d.n, &d.m, &d.k0, &d.ncodes, &d.nowhere,
-                          &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other, &d.ess_fraction,
-                          &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
-                          &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20], &o[21], &o[22], &o[23],
-                          &o[24], &o[25], &o[26], &o[27], &o[28], &o[29], &o[30]))
+    PyObject *o[32], *refill = Py_None;
+    long long blk = 0, kb = 0, ke = 0;
+    if (!PyArg_ParseTuple(args, "LLLLLLLLdddddOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOOLLLO", &d.n, &d.m, &d.k0, &d.ncodes,
+                          &d.nowhere, &d.nstrata, &d.nr, &d.nw, &d.radius, &d.sigma, &d.log_peak, &d.log_other,
+                          &d.ess_fraction, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6], &o[7], &o[8], &o[9],
+                          &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18], &o[19], &o[20],
+                          &o[21], &o[22], &o[23], &o[24], &o[25], &o[26], &o[27], &o[28], &o[29], &o[30], &refill,
+                          &blk, &kb, &ke, &o[31]))
         return NULL;
     const int64_t n = d.n, m = d.m, nk = n - 1 - d.k0 > 0 ? n - 1 - d.k0 : 0;
+    /* refill (None: the noise arrays hold every step): a callable drawing the noise of blk steps from step j into
+     * normal_pos (blk, m, 3) and add_psi (blk, m), called when the loop reaches j = 0, blk, 2 blk, ... (the GIL is
+     * kept for it).  The loop runs steps kb .. ke - 1: the history buffers (hist, hist_lab, anc) hold those steps,
+     * hist_w one row more in front (the weights of step kb - 1); a block after the first (kb > k0) resumes from
+     * work, iwork, start_ev and state (6 numbers) as the block before left them, and with a refill starts at a
+     * noise block (kb - 1 - k0 a multiple of blk). */
+    if (refill == Py_None) refill = NULL;
+    if (refill && (!PyCallable_Check(refill) || blk < 1)) {
+        PyErr_SetString(PyExc_ValueError, "pf_forward: refill must be callable with a block of at least 1 step");
+        return NULL;
+    }
+    const int64_t span = ke - kb;
+    const int64_t rows = refill ? (blk < nk ? blk : nk) : nk; /* steps the noise buffers hold */
     if (n < 1 || m < 2 || d.k0 < 0 || d.k0 >= n || d.nstrata < 1 || d.nr < 1 || d.nw < 1 || d.ncodes < 1) {
         PyErr_SetString(PyExc_ValueError, "pf_forward: bad dimensions");
         return NULL;
     }
+    if (kb < d.k0 || ke <= kb || ke > n || (kb > d.k0 && refill && (kb - 1 - d.k0) % blk != 0) ||
+        (kb > d.k0 && !refill)) {
+        PyErr_SetString(PyExc_ValueError, "pf_forward: bad block of steps");
+        return NULL;
+    }
     int has_temper = o[10] != Py_None;
     const Py_ssize_t n1 = n - 1 > 0 ? n - 1 : 1;
-    static const char *names[31] = {
+    static const char *names[32] = {
         "horiz", "kstep",   "normal_pos", "chol",    "ustep",   "add_psi", "u_res",    "grip",     "grip_end",
         "late",  "temper",  "r_pos",      "r_code",  "w_pos",   "w_code",  "pos0",     "psi0",     "lab0",
         "which", "hist",    "hist_w",     "hist_lab", "anc",    "out_pos", "out_code", "out_prob", "out_yaw",
-        "out_ev", "start_ev", "work",     "iwork"};
-    Py_ssize_t cnt[31] = {3 * n1, 3 * n1, 3 * m * nk, 9 * nk, 3 * n1, m * nk, n, n, n, n, n, 3 * d.nr, d.nr,
-                          3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * n, m * n, m * n, m * n1, 3 * n, n, n, n, n,
-                          d.nstrata, 11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata};
-    Buf b[31];
+        "out_ev", "start_ev", "work",     "iwork",    "state"};
+    Py_ssize_t cnt[32] = {3 * n1, 3 * n1, 3 * m * rows, 9 * nk, 3 * n1, m * rows, n, n, n, n, n, 3 * d.nr, d.nr,
+                          3 * d.nw, d.nw, 3 * m, m, m, m, 4 * m * span, m * (span + 1), m * span, m * span, 3 * n, n,
+                          n, n, n, d.nstrata, 11 * m + d.ncodes * (d.nstrata + 1) + 5 * d.nstrata, 6 * m + d.nstrata,
+                          6};
+    Buf b[32];
     memset(b, 0, sizeof(b));
     int k;
-    for (k = 0; k < 31; k++) {
+    for (k = 0; k < 32; k++) {
         if (k == 10 && !has_temper) continue;
         if ((k == 2 || k == 3 || k == 5) && nk == 0) continue;
         if (get_buf(o[k], &b[k], cnt[k], k >= 19, names[k]) < 0) break;
     }
     PyObject *res = NULL;
-    if (k == 31) { /* the codes index the cluster sums and the strata: checked here, the loop trusts them */
+    if (k == 32) { /* the codes index the cluster sums and the strata: checked here, the loop trusts them */
         const int64_t *rc = b[12].view.buf, *wc = b[14].view.buf, *l0 = b[17].view.buf, *wh = b[18].view.buf;
         int ok = d.nowhere >= 0 && d.nowhere < d.ncodes;
         for (int64_t i = 0; i < d.nr && ok; i++) ok = rc[i] >= 0 && rc[i] < d.ncodes;
@@ -316,18 +353,25 @@ static PyObject *py_forward(PyObject *self, PyObject *args) {
             k = 0;
         }
     }
-    if (k == 31) {
-        void *p[31];
-        for (int i = 0; i < 31; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
+    if (k == 32) {
+        void *p[32];
+        for (int i = 0; i < 32; i++) p[i] = b[i].held ? b[i].view.buf : NULL;
         int64_t resamples = 0, merged;
-        Py_BEGIN_ALLOW_THREADS
-        merged = forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
-                         p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26],
-                         p[27], p[28], &resamples, p[29], p[30]);
-        Py_END_ALLOW_THREADS
-        res = Py_BuildValue("LL", (long long)merged, (long long)resamples);
+#define PF_FORWARD(cb)                                                                                              \
+    forward(&d, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14], p[15], \
+            p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], &resamples,    \
+            p[29], p[30], cb, blk, kb, ke, p[31])
+        if (refill) { /* the callback needs the GIL: the loop keeps it */
+            merged = PF_FORWARD(refill);
+        } else {
+            Py_BEGIN_ALLOW_THREADS
+            merged = PF_FORWARD(NULL);
+            Py_END_ALLOW_THREADS
+        }
+#undef PF_FORWARD
+        res = merged == -2 ? NULL : Py_BuildValue("LL", (long long)merged, (long long)resamples);
     }
-    release(b, 31);
+    release(b, 32);
     return res;
 }
 

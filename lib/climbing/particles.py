@@ -82,7 +82,9 @@ O(M^2) per step, evaluated with one whitened matrix product per step.
 Compiled path: where the optional C extension ``_climbing_c`` is built (:mod:`sportfusion.climbing._native`),
 the filter runs step by step in C and the backward simulation's paths and the smoothed clusters too, from the
 same random draws as the numpy code here (which stays the reference, ``tests/test_climbing_native.py``):
-the same outputs to rounding, about 3x faster.
+the same outputs to rounding, about 3x faster.  There the filter keeps a block of its history at a time and
+the smoother runs it again block by block (:mod:`sportfusion.climbing._pfblocks`): memory that does not grow
+with the trial's length, where the numpy path holds the whole history (~26 kB a step with 200 particles).
 """
 
 from __future__ import annotations
@@ -91,11 +93,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sportfusion.climbing import _pfblocks
 from sportfusion.climbing._native import native
 from sportfusion.core.errors import InputError
 from sportfusion.core.stats import unique
 from sportfusion.estimators.particles import (
-    backward_draws,
     backward_simulation,
     backward_simulation_gaussian,
     systematic_resample,
@@ -426,12 +428,16 @@ def run_particle_filter(
     temper = None if p.grip_count is None else grip_weights(grip, p.grip_count)
     merged_at = -1 if split else k0
     start_ev = np.zeros(s_ids.size)
-    hist = np.empty((n, m, 4))  # per step and particle: position [m], yaw error [rad]
-    hist_pos, hist_psi = hist[..., :3], hist[..., 3]
-    hist_w = np.empty((n, m))
-    hist_lab = np.empty((n, m), dtype=np.int64)
-    anc = np.empty((max(n - 1, 0), m), dtype=np.int64)  # anc[k, j]: particle at k that j at k+1 came from
-    anc[:] = np.arange(m)
+    pf_c = native()
+    # the C path with the backward simulation keeps a block of the history at a time (module _pfblocks)
+    blocked = pf_c is not None and (not smooth or (p.smoother == "backward" and n - 1 > k0))
+    if not blocked:
+        hist = np.empty((n, m, 4))  # per step and particle: position [m], yaw error [rad]
+        hist_pos, hist_psi = hist[..., :3], hist[..., 3]
+        hist_w = np.empty((n + 1, m))[1:]  # (a row in front for the C loop)
+        hist_lab = np.empty((n, m), dtype=np.int64)
+        anc = np.empty((n, m), dtype=np.int64)[: max(n - 1, 0)]  # anc[k, j]: particle at k that j at k+1 came from
+        anc[:] = np.arange(m)
     out_pos = np.full((n, 3), np.nan)
     out_lab = np.full(n, -2, dtype=np.int64)
     out_prob = np.full(n, np.nan)
@@ -442,8 +448,11 @@ def run_particle_filter(
     # all process noise up front: one draw, scaled per step, plus the step's along-up part; coordinates
     # first (nk, 3, m), so that the arithmetic below runs along the particles
     nk = max(n - 1 - k0, 0)
-    normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
-    add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
+    if pf_c is None:
+        normal_pos = rng.standard_normal((nk, m, 3))  # e_p = L_k n (plus the step's along-up part) below
+        add_psi = rng.standard_normal((nk, m)) * model.yaw_sigma[k0 : n - 1, None]
+    else:  # the same numbers, drawn a block of steps at a time when the C loop reaches it
+        noise = _pfblocks.NoiseBlocks(rng, nk, m, model.yaw_sigma[k0 : n - 1], _pfblocks.BLOCK)
     u_res = rng.random(n)
     horiz = model.horiz
     grips = np.flatnonzero(grip)
@@ -453,27 +462,30 @@ def run_particle_filter(
     # for resampling (or where the start hypotheses merge); the block ends there and the next starts from
     # the resampled particles.  A block spans a number of grips: few after a resampling (the next often
     # follows soon), more and more after none.
-    pf_c = native()
     if pf_c is not None:  # the same loop, step by step in C (the numpy blocks below are its reference)
         out_code = np.empty(n, dtype=np.int64)
         c64 = np.ascontiguousarray
         lab0 = np.searchsorted(table, s_ids[which]).astype(np.int64)
-        merged_at, resamples = pf_c.forward(
+        head = [
             n, m, k0, table.size, nowhere, len(strata), r_ids.size, w_ids.size,
             p.hold.radius, p.hold.sigma, p.hold.log_peak, p.hold.log_elsewhere, p.ess_fraction,
             c64(horiz) if n > 1 else np.zeros(3), c64(model.kstep) if n > 1 else np.zeros(3),
-            normal_pos, c64(model.chol[k0 : n - 1]) if nk else np.zeros(9),
-            c64(model.ustep) if n > 1 else np.zeros(3), c64(add_psi), u_res,
+            noise.normal, c64(model.chol[k0 : n - 1]) if nk else np.zeros(9),
+            c64(model.ustep) if n > 1 else np.zeros(3), noise.psi, u_res,
             grip.astype(np.int64), grip_end.astype(np.int64), late.astype(np.int64),
             None if temper is None else c64(temper, dtype=np.float64),
             c64(r_pos, dtype=np.float64), r_code.astype(np.int64),
             c64(w_pos, dtype=np.float64), w_code.astype(np.int64),
             c64(pos.T), c64(psi), lab0, which.astype(np.int64),
-            hist, hist_w, hist_lab, anc if n > 1 else np.zeros(m, dtype=np.int64),
+        ]  # fmt: skip
+        tail = [
             out_pos, out_code, out_prob, out_yaw, out_ev, start_ev if len(strata) > 1 else np.zeros(1),
             np.empty(11 * m + table.size * (len(strata) + 1) + 5 * len(strata)),
             np.empty(6 * m + len(strata), dtype=np.int64),
-        )  # fmt: skip
+        ]  # fmt: skip
+        full = None if blocked else (hist[k0:], hist_w.base[k0:], hist_lab[k0:], anc.base[k0:])
+        fwd = _pfblocks.ForwardC(pf_c, head, tail, noise, n, m, k0, full)
+        merged_at, resamples = fwd.record()
         out_lab[k0:] = table[out_code[k0:]]
         if len(strata) > 1 and merged_at >= 0:
             strata = [slice(None)]
@@ -565,13 +577,15 @@ def run_particle_filter(
             else:
                 want = min(4 * want, 64)
             k = stop
+    normal_pos = add_psi = add_pos = None  # the process noise: the smoother does not need it
     res = PFResult(
         k0, out_pos, out_lab, out_prob, out_yaw, None, None, None, None, resamples, out_ev, merged_at, start_ev
     )
     if smooth:
-        if split:  # the smoother follows the start hold with the larger evidence (up to the merge)
-            rows = slice(k0, n if merged_at < 0 else merged_at + 1)
-            hist_w[rows, which != int(np.argmax(start_ev))] = 0.0  # the winner's weights sum to 1
+        # the smoother follows the start hold with the larger evidence (up to the merge): the others' weights 0
+        zero = (n if merged_at < 0 else merged_at + 1, which != int(np.argmax(start_ev))) if split else None
+        if zero is not None and not blocked:
+            hist_w[k0 : zero[0], zero[1]] = 0.0  # the winner's weights sum to 1
         if p.smoother not in ("ffbsm", "backward"):
             raise InputError(f"smoother {p.smoother!r} is not backward or ffbsm")
         sp = np.full((n, 3), np.nan)
@@ -579,13 +593,9 @@ def run_particle_filter(
         sprob = np.full(n, np.nan)
         syaw = np.full(n, np.nan)
         rows = slice(k0, n)
-        pf_c = native()
-        if p.smoother == "backward" and pf_c is not None and n - 1 > k0:
+        if blocked:
             # the same draws, tests and clusters in C: the trajectories' particles, then their clusters per step
-            path = _backward_path_c(pf_c, hist, hist_w, anc, model, k0, rng, p.smoother_moves)
-            code = np.empty(n, dtype=np.int64)
-            pf_c.path_clusters(n, m, k0, table.size, path, hist, hist_lab, sp, code, sprob, syaw)
-            code = code[rows]
+            code = _pfblocks.smooth_blocks_c(fwd, model, k0, rng, p.smoother_moves, table.size, (sp, sprob, syaw), zero)
         else:
             if p.smoother == "ffbsm":
                 ws = _ffbsm(hist_pos, hist_psi, hist_w, model, k0)
@@ -597,30 +607,6 @@ def run_particle_filter(
         sl[rows] = table[code]
         res.smooth_pos, res.smooth_label, res.smooth_prob, res.smooth_yaw = sp, sl, sprob, syaw
     return res
-
-
-def _backward_path_c(  # noqa: ANN202
-    ext,  # noqa: ANN001
-    state: np.ndarray,
-    w: np.ndarray,
-    anc: np.ndarray,
-    model: _Model,
-    k0: int,
-    rng: np.random.Generator,
-    moves: int,
-):
-    """The trajectories' particles (n - k0, m) of :func:`_backward`'s backward simulation, in C (the extension
-    ``ext``): the same draws and acceptance tests, the whitened distances formed per trajectory."""
-    n, m = w.shape
-    j, cum, u, log_u = backward_draws(w, rng, k0, moves)
-    path = np.empty((n - k0, m), dtype=np.int64)
-    c64 = np.ascontiguousarray
-    ext.backward_paths(
-        n, m, k0, moves, c64(j, dtype=np.int64), c64(cum), c64(u), c64(-2.0 * log_u), c64(anc, dtype=np.int64),
-        c64(state), c64(model.horiz), c64(model.kstep), c64(model.ustep),
-        c64(model.chol), c64(model.yaw_sigma), path,
-    )  # fmt: skip
-    return path
 
 
 def _backward(

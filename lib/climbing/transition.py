@@ -367,7 +367,8 @@ def solve_step(ne: Normal, lam: float) -> tuple[np.ndarray, np.ndarray, tuple]:
     """
     n = ne.hd.shape[0]
     try:
-        cr = blocktri.factor(ne.hd + lam * np.eye(NX), ne.ho)
+        # the factors over the shifted diagonal and a copy of the couplings: no third pair of (n, 6, 6) arrays
+        cr = blocktri.factor(ne.hd + lam * np.eye(NX), ne.ho.copy(), overwrite=True)
     except np.linalg.LinAlgError as exc:
         raise InputError(
             "the transition estimate is singular (too few grips or magnetometer samples); "
@@ -375,27 +376,34 @@ def solve_step(ne: Normal, lam: float) -> tuple[np.ndarray, np.ndarray, tuple]:
         ) from exc
     x = blocktri.solve(cr, np.concatenate((ne.gx[:, :, None], ne.hxb), axis=2))  # (n, 6, 1 + 9)
     xg, xb = x[:, :, 0], x[:, :, 1:]
+    xbf = xb.reshape(-1, NB)  # (a copy, once: the columns 1.. of x are not contiguous)
     hxb = ne.hxb.reshape(-1, NB)
     # H_xb^T A^-1 H_xb by einsum, not BLAS: a (9 x 6n) (6n x 9) product goes to OpenBLAS's threads,
     # whose waiting costs more CPU time than the product (7 vs 1.6 ms on the loaded 2-core machine)
     s = ne.hbb + lam * np.eye(NB) - np.einsum("kia,kib->ab", ne.hxb, xb)
     db = np.linalg.solve(s, -ne.gb + hxb.T @ xg.ravel())
-    dx = -xg - (xb.reshape(-1, NB) @ db).reshape(n, NX)
-    return dx, db, (xb.reshape(NX * n, NB), s, cr)
+    dx = -xg - (xbf @ db).reshape(n, NX)
+    return dx, db, (xbf, s, cr)
 
 
 def velocity_covariance(
-    ne: Normal, xb: np.ndarray, s: np.ndarray, factored: blocktri.CyclicReduction | blocktri.BlockCholesky | None = None
+    ne: Normal | None,
+    xb: np.ndarray,
+    s: np.ndarray,
+    factored: blocktri.CyclicReduction | blocktri.BlockCholesky | None = None,
 ) -> np.ndarray:
     """3 x 3 velocity blocks on the diagonal of ``H^-1`` (eq 13), shape (n, 3, 3) [(m/s)^2].
 
     The diagonal blocks of the state block's inverse by selected inversion
     (:func:`sportfusion.estimators.blocktri.diagonal_of_inverse`; ``factored``: the state block
     already factorised, e.g. by :func:`solve_step`), plus the bias term ``X_k S_b^-1 X_k^T`` of the
-    bordered inverse (``xb`` = ``A^-1 H_xb``, ``s`` the biases' Schur complement).
+    bordered inverse (``xb`` = ``A^-1 H_xb``, ``s`` the biases' Schur complement).  ``ne``, the normal
+    equations, is read only where ``factored`` is None (so a caller may drop them once factorised).
     """
-    n = ne.hd.shape[0]
-    cr = factored if factored is not None else blocktri.factor(ne.hd, ne.ho)
+    n = xb.shape[0] // NX
+    if factored is None and ne is None:
+        raise ValueError("velocity_covariance needs the normal equations or their factorisation")
+    cr = factored if factored is not None else blocktri.factor(ne.hd, ne.ho)  # type: ignore[union-attr]
     out = blocktri.diagonal_of_inverse(cr)[:, 3:, 3:]
     xv = xb.reshape(n, NX, NB)[:, 3:, :]
     out = out + xv @ np.linalg.inv(s) @ np.swapaxes(xv, 1, 2)
@@ -455,17 +463,25 @@ def initial_state(prob: Problem) -> State:
     return State(r, v, np.r_[np.zeros(3), bg, np.zeros(3)])
 
 
-def solve(prob: Problem, st: State) -> tuple[State, Linearization, Normal, tuple, int]:
-    """Levenberg-Marquardt from ``st``; returns the optimum, its linearization, normal equations, factors, iterations."""
+def solve(prob: Problem, st: State) -> tuple[State, float, tuple, int]:
+    """Levenberg-Marquardt from ``st``; returns the optimum, its cost (eq 12), the factors of :func:`solve_step` at
+    the optimum (for the covariance) and the iterations.
+
+    Memory: one linearization or one system of normal equations is held besides the step's solve at a time
+    (~1.2 kB a sample each): the optimum's system is freed once factorised.
+    """
     p = prob.params
     lin = linearize(prob, st)
     cost = lin.cost
     lam = 1e-6
     it = 0
     for it in range(1, p.max_iter + 1):  # noqa: B007 - the count is returned
+        ne = None  # the last iteration's system, freed before the next is formed
         ne = normal_equations(prob, lin)
+        lin = lin_c = None  # memory: formed again below in the rare case that the last candidate is refused
         while True:
-            dx, db, _ = solve_step(ne, lam)
+            lin_c = None
+            dx, db = solve_step(ne, lam)[:2]  # its factors freed before the candidate's linearization
             cand = st.boxplus(dx, db)
             lin_c = linearize(prob, cand)  # with the Jacobian: it is the next linearization when accepted
             if lin_c.cost <= cost or lam > 1e8:
@@ -478,9 +494,13 @@ def solve(prob: Problem, st: State) -> tuple[State, Linearization, Normal, tuple
         lam = max(lam / 10.0, 1e-9)
         if decrease < p.tol or np.abs(dx).max() < 1e-10:
             break
+    ne = lin_c = None  # the last iteration's system and candidate: freed before the final system is formed
+    if lin is None:  # the last candidate was refused: the optimum's linearization again (the same numbers)
+        lin = linearize(prob, st)
     ne = normal_equations(prob, lin)
-    _, _, factors = solve_step(ne, 1e-12)
-    return st, lin, ne, factors, it
+    cost = lin.cost
+    del lin
+    return st, cost, solve_step(ne, 1e-12)[2], it
 
 
 def estimate_transitions(
@@ -536,9 +556,9 @@ def estimate_transitions(
         params or TransitionParams(),
     )
     st0 = initial_state(prob)
-    st, lin, ne, (xb, s, factored), it = solve(prob, st0)
-    cov = velocity_covariance(ne, xb, s, factored)
-    return TransitionResult(t, st.r, st.v, cov, st.b[:3], st.b[3:6], st.b[6:], lin.cost, it)
+    st, cost, (xb, s, factored), it = solve(prob, st0)
+    cov = velocity_covariance(None, xb, s, factored)  # the factors only: the system was dropped
+    return TransitionResult(t, st.r, st.v, cov, st.b[:3], st.b[3:6], st.b[6:], cost, it)
 
 
 def integrate(t: np.ndarray, v: np.ndarray, p0: np.ndarray, k0: int = 0) -> np.ndarray:

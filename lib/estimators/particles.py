@@ -15,6 +15,7 @@ __all__ = [
     "effective_size",
     "systematic_resample",
     "backward_draws",
+    "BackwardDraws",
     "backward_simulation",
     "backward_simulation_gaussian",
     "path_weights",
@@ -85,6 +86,59 @@ def backward_draws(
     with np.errstate(divide="ignore"):
         log_u = np.log(rng.random((steps, moves, m)))
     return b, cum, u, log_u
+
+
+class BackwardDraws:
+    """The draws of :func:`backward_draws` a block of steps at a time: the same numbers, without holding the
+    ``(steps, moves, m)`` uniforms and cumulative weights of the whole run.
+
+    The trajectories' ends :attr:`end` are drawn at construction, and ``rng`` is left where
+    :func:`backward_draws` leaves it.  A PCG64 generator (numpy's default) gives one uniform per 64-bit output,
+    so a block's uniforms come from a copy of the generator jumped ahead to them; any other generator's
+    uniforms are drawn whole at construction.
+
+    Parameters
+    ----------
+    last : ndarray (m,)
+        The filter's weights at the last step (``w[n - 1]`` of :func:`backward_draws`).
+    steps : int
+        ``n - 1 - k0``: the steps smoothed before the last.
+    rng, moves
+        As for :func:`backward_draws`.
+    """
+
+    def __init__(self, last: np.ndarray, steps: int, rng: np.random.Generator, moves: int) -> None:
+        m = last.size
+        self.steps, self.moves, self.m = max(steps, 0), moves, m
+        self.end = systematic_resample(last, float(rng.random()))
+        size = self.steps * moves * m
+        bg = rng.bit_generator
+        self._state: dict | None = None
+        if isinstance(bg, np.random.PCG64):
+            self._state = bg.state
+            bg.advance(2 * size)  # past the uniforms and the acceptance uniforms
+        else:
+            self._u = rng.random((self.steps, moves, m))
+            self._v = rng.random((self.steps, moves, m))
+
+    def _uniforms(self, first: int, rows: int) -> np.ndarray:
+        bg = np.random.PCG64()
+        bg.state = self._state
+        bg.advance(first * self.moves * self.m)
+        return np.random.Generator(bg).random((rows, self.moves, self.m))
+
+    def rows(self, r0: int, r1: int, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``cum``, ``u`` and ``log_u`` of :func:`backward_draws` for its rows ``r0 .. r1 - 1`` (steps
+        ``k0 + r0 .. k0 + r1 - 1``), given the filter's weights ``w`` (r1 - r0, m) of those steps."""
+        cum = np.cumsum(w, axis=1)
+        cum /= cum[:, -1:]
+        cum[:, -1] = 1.0
+        if self._state is None:
+            u, v = self._u[r0:r1], self._v[r0:r1]
+        else:
+            u, v = self._uniforms(r0, r1 - r0), self._uniforms(self.steps + r0, r1 - r0)
+        with np.errstate(divide="ignore"):
+            return cum, u, np.log(v)
 
 
 def backward_simulation(
