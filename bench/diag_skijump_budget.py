@@ -7,6 +7,7 @@ Runs bench_skijump_independent's pipeline on the nominal world and on worlds wit
 from __future__ import annotations
 
 import math
+import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -80,7 +81,7 @@ def one(job):
 def main() -> None:
     names = ["nominal", *EXTRA]
     jobs = [(7000 + i, v) for v in names for i in range(8)]
-    with ProcessPoolExecutor(16) as ex:
+    with ProcessPoolExecutor(os.cpu_count() or 1) as ex:
         rows = list(ex.map(one, jobs))
     print("variant          3-D [m]  x(along) y(lat)  z(vert) [m]  jump len RMS [m]")
     for v in names:
