@@ -444,7 +444,7 @@ def gate_anchor_arrays(
     chk = check_matching(ids, det3, cross["side"], survey, ssd, np.array(res_a), np.array(sig_a), p.check)
     if chk.hopeless:
         raise InputError(
-            f"the detected crossings do not fit the gate survey: {chk.message}; an anchored track would be off by "
+            f"the detected crossings do not fit the gate survey: {chk.message}; an anchored track could be off by "
             "tens of metres (is it the right course, in gate order? are the crossings gate passes?)"
         )
     accs = rotate_z(xs[:, 6:9], alpha)
