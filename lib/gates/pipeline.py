@@ -445,7 +445,8 @@ def gate_anchor_arrays(
     if chk.hopeless:
         raise InputError(
             f"the detected crossings do not fit the gate survey: {chk.message}; an anchored track could be off by "
-            "tens of metres (is it the right course, in gate order? are the crossings gate passes?)"
+            "tens of metres (is it the right course, in gate order? are the crossings gate passes? is there motion "
+            "other than the run between the static start and finish, e.g. a calibration, that only body-model knows?)"
         )
     accs = rotate_z(xs[:, 6:9], alpha)
     com = vcom = None
