@@ -107,3 +107,31 @@ def test_static_gravity_takes_the_accelerometer_scale_out():
     assert np.abs(global_acceleration(q, f, 9.81)[:, 2]).max() > 0.19  # normal gravity: 0.2 m/s^2 "up" forever
     g = static_gravity(t, f, st)
     assert np.abs(global_acceleration(q, f, g)).max() < 1e-9
+
+
+def test_alignment_follows_a_track_whose_speed_is_off_by_metres_per_second():
+    # the full-body skier of seed 1202 (issue 39): the inertial track between the still start and finish
+    # overestimated the speed along the course by up to 6.7 m/s mid-run (its displacement from gate to gate
+    # 30 % too long), the first and the last gate were passed too wide to be detected; every displacement
+    # compared on its own, the alignment matched 12 of 28 crossings (some to the neighbouring gate) and the
+    # anchored track ended 70-160 m off.  A path's misfits are smooth in time (the drift's rate), so each
+    # step is compared with the drift its path has shown so far.
+    from sportfusion.gates.alignment import AlignParams, align_with_azimuth
+
+    t0, t1, vmax = 16.0, 61.0, 7.0  # still until t0 and from t1 [s]; the speed error mid-run [m/s]
+    along = np.array([1.0, 0.0, 0.2]) / np.hypot(1.0, 0.2)
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        survey = _course(rng)
+        ssd = survey_sides(survey)
+        gates = np.arange(1, 29)
+        t = 20.0 + 1.25 * gates + rng.normal(0, 0.05, gates.size)
+        drift = vmax * (t1 - t0) / np.pi * (1 - np.cos(np.pi * (t - t0) / (t1 - t0)))  # the speed error's integral
+        det = survey[gates] + np.outer(drift, along) + rng.normal(0, 0.3, (gates.size, 3))
+        det = rotate_z(det, np.deg2rad(3.0)) + [-400.0, 9.0, -80.0]
+        ids, alpha, _ = align_with_azimuth(t, det, ssd[gates], survey, ssd, 0.0)
+        assert list(ids) == list(gates), seed
+        assert abs(np.rad2deg(alpha) + 3.0) < 0.5
+        # the construction is a hard one: without the drift's rate, a handful of crossings are matched
+        old = align_crossings(t, rotate_z(det, np.deg2rad(-3.0)), ssd[gates], survey, ssd, AlignParams(drift_gain=0))
+        assert (old == gates).sum() < 10

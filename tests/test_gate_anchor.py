@@ -233,3 +233,30 @@ def test_independent_physics_short_course(variant):
     ids = out.column("gate").drop_null().to_numpy(zero_copy_only=False)
     truth_ids = [int(np.argmin(np.abs(c["t"] - x))) + 1 for x in ct]
     assert all(g in (-1, want) for g, want in zip(ids, truth_ids, strict=True))
+
+
+def test_a_survey_that_does_not_fit_is_refused_not_silently_anchored(tmp_path, sim):
+    # the survey of another course (this one stretched by 30 % along the hill): before issue 39's check,
+    # gate-anchor matched 2 of 29 crossings, said so in an info line and wrote a track tens of metres off
+    s, sess = sim
+    x = floats(s.survey, "x")
+    stretched = s.survey.set_column(s.survey.column_names.index("x"), "x", pa.array(x[0] + (x - x[0]) * 1.3))
+    (tmp_path / "g.parquet").write_bytes(sfio.table_to_bytes(stretched, s.survey_meta))
+    r = run_cli(["gate-anchor", "--gates", str(tmp_path / "g.parquet")], stdin=sfio.table_to_bytes(sess, s.meta))
+    err = r.stderr.decode().strip()
+    assert r.returncode == 1 and r.stdout == b"", err
+    assert len(err.splitlines()) == 1 and err.startswith("Error: gate-anchor: the detected crossings do not fit")
+
+
+def test_a_doubtful_matching_warns_and_widens_std(sim):
+    from sportfusion.gates.checks import CheckParams
+
+    s, sess = sim
+    # every anchor taken as contradicting the track (a zero limit): the warning and the widened std_ columns
+    p = GateAnchorParams(rate=50.0, check=CheckParams(max_ratio=0.0))
+    out, meta, _ = gate_anchor_table(sess, s.meta, s.survey, s.survey_meta, p)
+    ga = meta["gate_anchor"]
+    assert ga["check"]["doubtful"] and any("doubtful" in w and "std_ columns widened" in w for w in ga["warnings"])
+    e, _, abs_err, std = _errors(s, out)
+    # widened to the difference between the anchored and the inertial track: metres, not decimetres
+    assert np.median(np.linalg.norm(std, axis=1)) > 1.0 and np.all(abs_err <= 3 * std + 0.05)

@@ -150,7 +150,8 @@ def main(
     the background removed, a bar magnet of free moment fitted), or from the peak
     intensity and the body model (--peak-model, the paper's eqs 1-6); matching to
     the survey (PCA azimuth, then a sequence alignment of crossings and gates by
-    their inertial displacements, robust to runs of missed gates); the smoother
+    their inertial displacements, robust to runs of missed gates and to a drifting
+    speed); the smoother
     again with the anchors (1 m, then each pass fit's covariance, or 0.1 m with
     --peak-model). Writes x y z, vx vy vz and
     std_ columns on every row, and at each crossing the matched gate, whether it
@@ -167,7 +168,11 @@ def main(
     (body-model's pelvis_lever_m) + the relative CoM, three-point speed,
     2nd-order Butterworth 5 Hz zero phase), the turn figures from the CoM.
     Crossings are taken at the field peak's time between samples
-    (detect-events' gate_t_peak)."""
+    (detect-events' gate_t_peak). Never silently wrong: when few of the detected
+    crossings are matched, many lie off every gate on the anchored track, or the
+    anchors contradict it, a warning names it and the std_ columns are widened to
+    the difference between the anchored and the inertial track; fewer than half
+    matched (or few matched and many off every gate) is refused (exit 1)."""
     table, meta = tool.read()
     survey, smeta = (None, None)
     if gates_path:

@@ -18,6 +18,8 @@
    with each fit's covariance (plus ``sigma_fit``), 0.1 m for the peak model (the paper's), ``sigma_unfitted``
    for a crossing whose fit failed.  ``anchors_every`` keeps only every K-th gate's anchor (the paper's
    simulated downhill: K = 3).
+5. The check (:mod:`sportfusion.gates.checks`): the matched share, crossings off every gate on the final
+   track, anchors that contradict it; doubtful -> a warning and ``std_`` widened, lost -> refused.
 
 Output in the survey's frame (the session's local frame): the sacrum's x y z, vx vy vz with ``std_``
 columns, the matched gate per crossing and the per-turn figures of the paper (Table 2): entrance and exit
@@ -51,6 +53,7 @@ from sportfusion.gates.anchors import (
     snow_normals,
     survey_sides,
 )
+from sportfusion.gates.checks import CheckParams, check_matching, widen_std
 from sportfusion.gates.com import (
     SIGMA_REL_COM,
     SIGMA_REL_VCOM,
@@ -130,6 +133,7 @@ class GateAnchorParams:
     eks: EKSParams = field(default_factory=EKSParams)
     match: MatchParams = field(default_factory=MatchParams)
     align: AlignParams = field(default_factory=AlignParams)
+    check: CheckParams = field(default_factory=CheckParams)
 
 
 @dataclass
@@ -431,6 +435,19 @@ def gate_anchor_arrays(
     cov_v = R @ Ps[:, 3:6, 3:6] @ R.T
     pos = rotate_z(pos_j, alpha) + offset
     vel = rotate_z(xs[:, 3:6], alpha)
+    # never silently wrong (:mod:`sportfusion.gates.checks`): every crossing's anchor on the final track, the
+    # final anchors' post-fit residuals against their sigmas (anchor and track)
+    det3 = rotate_z(_detected_anchors(tg, pos_j, xs[:, 3:6], cross, None, p, fits, body), alpha) + offset
+    cov_a = [an.cov if an.cov is not None else np.eye(3) * an.sigma**2 for an in an2]
+    res_a = [np.linalg.norm(an.z - pos_j[an.k]) for an in an2]
+    sig_a = [np.sqrt(np.trace(c + cov_j[an.k])) for an, c in zip(an2, cov_a, strict=True)]
+    chk = check_matching(ids, det3, cross["side"], survey, ssd, np.array(res_a), np.array(sig_a), p.check)
+    if chk.hopeless:
+        raise InputError(
+            f"the detected crossings do not fit the gate survey: {chk.message}; an anchored track could be off by "
+            "tens of metres (is it the right course, in gate order? are the crossings gate passes? is there motion "
+            "other than the run between the static start and finish, e.g. a calibration, that only body-model knows?)"
+        )
     accs = rotate_z(xs[:, 6:9], alpha)
     com = vcom = None
     if body is not None:  # the paper's output: the CoM, and the turn figures from it
@@ -450,12 +467,22 @@ def gate_anchor_arrays(
         "drift_angles_deg": [float(v) for v in np.rad2deg(xs[-1, 12:15])],
         "anchor_rms_m": float(np.sqrt(np.nanmean(r3.residuals["anchor"] ** 2))) if "anchor" in r3.residuals else None,
     }
+    std_pos = np.sqrt(np.maximum(np.diagonal(cov_p, axis1=1, axis2=2), 0))
+    std_vel = np.sqrt(np.maximum(np.diagonal(cov_v, axis1=1, axis2=2), 0))
+    passes["check"] = {"doubtful": chk.doubtful, "unexplained": chk.n_far, "residual_ratio": chk.ratio}
+    if chk.doubtful:  # the anchored or the inertial track may be the right one: std_ covers both
+        std_pos = widen_std(std_pos, pos, rotate_z(p1, alpha) + offset)
+        std_vel = widen_std(std_vel, vel, rotate_z(v1, alpha))
+        passes["warnings"] = [
+            f"the matching of crossings to gates is doubtful: {chk.message}; std_ columns widened "
+            "to the difference between the anchored and the inertial track"
+        ]
     return GateAnchorResult(
         t=tg,
         pos=pos,
         vel=vel,
-        std_pos=np.sqrt(np.maximum(np.diagonal(cov_p, axis1=1, axis2=2), 0)),
-        std_vel=np.sqrt(np.maximum(np.diagonal(cov_v, axis1=1, axis2=2), 0)),
+        std_pos=std_pos,
+        std_vel=std_vel,
         acc=accs,
         pos_inertial=rotate_z(p1, alpha) + offset,
         vel_inertial=rotate_z(v1, alpha),
@@ -648,7 +675,7 @@ def gate_anchor_table(
         "turns": res.turns,
     }
     gap_line = describe_gaps("IMU", t[imu], 0.05)
-    meta["gate_anchor"]["warnings"] = [gap_line] if gap_line else []
+    meta["gate_anchor"]["warnings"] = ([gap_line] if gap_line else []) + res.passes.pop("warnings", [])
     msg = (
         f"{res.passes['matched_final']} of {cr['t'].size} crossings matched to {xyz.shape[0]} gates, "
         f"{res.passes['anchors_final']} anchors, {len(res.turns)} turns"
