@@ -415,6 +415,37 @@ def test_c_backward_pass_from_the_stored_predictions(monkeypatch: pytest.MonkeyP
 
 
 @needs_c
+@pytest.mark.parametrize("nb", [1, 97, 400])
+def test_c_backward_pass_in_blocks_is_the_whole_history_to_the_bit(nb: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 38: ``work`` shorter than the run: the backward pass goes through blocks of ``nb`` steps, each
+    block's forward pass run again from a checkpoint (the last block shorter than the others; blocks of one step
+    too), with and without the stored predictions -- the states, std rows and residuals of the whole history,
+    to the bit; smooth_inputs keeps blocks of ``BLOCK_STEPS`` on a longer session, the same numbers."""
+    from sportfusion.skijump import _ski_native
+    from sportfusion.skijump import smoother_engine as E
+    from sportfusion.skijump.smoother_passes import smooth_inputs
+
+    _, _, _, cfg, inp, x0, P0 = _first_900_rows()
+    n = inp.t.size
+    assert n > 2 * nb
+    whole = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, work=(np.empty((n, 22)), np.empty((n, 253))))
+    for pred in ((), (np.empty((nb, _ski_native.NPRED)),)):
+        work = (np.full((nb + 1, 22), np.nan), np.full((nb, 253), np.nan), *pred)
+        got = E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, work=work)
+        for i in (0, 1, 4):
+            np.testing.assert_array_equal(got[i], whole[i])
+        for k in whole.residuals:
+            np.testing.assert_array_equal(got.residuals[k], whole.residuals[k], err_msg=k)
+    with pytest.raises(ValueError, match="x_pred and P_packed"):  # a block's priors need nb + 1 rows
+        E.run(inp, cfg, x0, P0, True, smooth=True, keep_cov=False, work=(np.empty((nb, 22)), np.empty((nb, 253))))
+    a = smooth_inputs(inp, cfg, keep_cov=False)
+    monkeypatch.setattr(_ski_native, "BLOCK_STEPS", nb)
+    b = smooth_inputs(inp, cfg, keep_cov=False)
+    np.testing.assert_array_equal(a.x_smooth, b.x_smooth)
+    np.testing.assert_array_equal(a.std, b.std)
+
+
+@needs_c
 def test_c_loop_writes_states_and_std_column_by_column() -> None:
     """The C loop's smoothed states and std rows written into a session's column-major arrays (a segment at an
     offset) are its row-major results, to the bit; each column of them is contiguous; other layouts are refused."""

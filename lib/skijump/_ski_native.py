@@ -45,6 +45,14 @@ NPRED = 10 * N + 55
 #: smooth_inputs keeps them only where the longest segment is at most a third of the session, and at most
 #: this long (36 MB).
 PRED_MAX_STEPS = 16384
+#: Steps of a block of the backward pass (issue 38): where the smoothed covariances are not kept, a run longer
+#: than this keeps the forward pass's priors and covariances one block at a time (2.2 KB/step, 9 MB), each
+#: block's forward pass run again from a checkpoint of the first (the prior state and covariance at the
+#: block's first step, 4 KB): the memory of a long session no longer grows by 2.2 KB/step, for a second
+#: forward pass; the same numbers to the bit.
+BLOCK_STEPS = 4096
+#: items of a checkpoint: the state and the full covariance at the top of a step
+NCK = N + N * N
 
 
 def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -131,6 +139,9 @@ def ski_ekf_rts(
     zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
     returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of :data:`NPRED`)
     keeps each step's prediction from the forward pass for the backward pass (same results, to the bit).
+    Where ``work``'s covariance array has fewer rows than the run (``nb`` of them: :func:`sportfusion.skijump.smoother_engine.c_buffers`), the
+    backward pass goes through blocks of ``nb`` steps, each block's forward pass run again from a checkpoint
+    (``work``'s first array then has ``nb + 1`` rows, its third ``nb``): the same results, to the bit.
     Raises RuntimeError when the extension is not built (call :func:`native` first).
     """
     mod = native()
@@ -138,11 +149,19 @@ def ski_ekf_rts(
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
     keep = bool(smooth) or bool(filtered_cov)
-    pred = None
+    pred = ck = None
+    nb = 0
     if work is not None and smooth and not smoothed_cov:
-        x_pred, pbuf = work[0][:n], work[1][:n]
-        if len(work) > 2 and work[2].shape[0] >= n - 1:
-            pred = work[2]
+        if n > work[1].shape[0]:  # blocks of nb steps
+            nb = work[1].shape[0]
+            x_pred, pbuf = work[0][: nb + 1], work[1]
+            ck = np.empty(((n + nb - 1) // nb, NCK))
+            if len(work) > 2:
+                pred = work[2][:nb]
+        else:
+            x_pred, pbuf = work[0][:n], work[1][:n]
+            if len(work) > 2 and work[2].shape[0] >= n - 1:
+                pred = work[2]
     else:
         x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
         pbuf = np.empty((n, NP) if keep else (1, NP))
@@ -177,6 +196,8 @@ def ski_ekf_rts(
         resid,
         std_buf,
         pred,
+        nb,
+        ck,
     )
     if not keep or (smooth and not smoothed_cov):
         pbuf = np.empty((0, NP))

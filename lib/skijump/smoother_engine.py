@@ -251,7 +251,9 @@ def c_buffers(n_all: int, n_max: int, keep_cov: bool) -> tuple[tuple[np.ndarray,
 
     ``out``: filtered states, smoothed states and std rows column by column (each of the table's columns
     without a copy: :func:`sportfusion.skijump._ski_native.column_outputs`), residuals.  ``work`` (None with
-    ``keep_cov``): the predictions and covariances of the longest segment, which every run reuses; on a
+    ``keep_cov``): the predictions and covariances of the longest segment, or of a block of
+    ``_ski_native.BLOCK_STEPS`` steps where it is longer (the backward pass then runs each block's forward pass
+    again from a checkpoint: memory that does not grow with the session), which every run reuses; on a
     session of many short segments (a multi-jump day) also the forward pass's predictions for the backward
     pass (on a single long segment they gain nothing for their memory: ``_ski_native.PRED_MAX_STEPS``).
     """
@@ -259,9 +261,10 @@ def c_buffers(n_all: int, n_max: int, keep_cov: bool) -> tuple[tuple[np.ndarray,
     out = (np.empty((n_all, mdl.N)), x_s, np.empty((n_all, _ski_native.NRES)), std)
     if keep_cov:
         return out, None
-    work: tuple[np.ndarray, ...] = (np.empty((n_max, mdl.N)), np.empty((n_max, _ski_native.NP)))
+    rows = min(n_max, _ski_native.BLOCK_STEPS)  # a longer run keeps one block at a time (same results)
+    work: tuple[np.ndarray, ...] = (np.empty((rows + 1, mdl.N)), np.empty((rows, _ski_native.NP)))
     if n_max <= _ski_native.PRED_MAX_STEPS and 3 * n_max <= n_all:
-        work += (np.empty((n_max, _ski_native.NPRED)),)
+        work += (np.empty((rows, _ski_native.NPRED)),)
     return out, work
 
 
