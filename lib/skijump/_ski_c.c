@@ -653,8 +653,8 @@ typedef struct {
 /* the size of a checkpoint: the state and the full covariance at the top of a step (before its updates) */
 #define NCK (N + N * N)
 
-/* The forward pass (eqs 10-16) over the steps ka <= k < kb from the prior (x, P) at step ka: filtered states
-   and innovations written at row k of x_filt and resid; where given (non-NULL), the priors, the packed filtered
+/* The forward pass (eqs 10-16) over the steps ka <= k < kb from the prior (x, P) at step ka: innovations written
+   at row k of resid, filtered states (where x_filt is given) at row k - xo of x_filt; where given, the priors, the packed filtered
    covariances and (pred, only where the step is not the segment's last) the predictions at row k - off of x_pred,
    Pbuf and pred, and at every step k that is a multiple of nb the prior (x, P) at ck + NCK * (k / nb).  Returns the
    failing step or -1, *phase 0 update, 1 prediction.  The same code from the same prior gives the same numbers
@@ -662,8 +662,8 @@ typedef struct {
    two calls compiled inside each of run's clones: as one function, the same contractions into FMA as before
    the forward pass was a function of its own, and the same results to the last bit). */
 static INLINE Py_ssize_t forward(const Inputs *in, Py_ssize_t ka, Py_ssize_t kb, Py_ssize_t off, const double *x_init,
-                                 const double *P_init, double *x_filt, double *resid, double *x_pred, double *Pbuf,
-                                 double *pred, double *ck, Py_ssize_t nb, int *phase) {
+                                 const double *P_init, double *x_filt, Py_ssize_t xo, double *resid, double *x_pred,
+                                 double *Pbuf, double *pred, double *ck, Py_ssize_t nb, int *phase) {
     const double *par = in->par, *t = in->t, *u = in->u, *pos = in->pos, *vel = in->vel, *mag = in->mag;
     const double *inrun = in->inrun, *landing = in->landing, *still = in->still, *mno = in->mno, *m_o = in->m_o;
     const double *qd = in->qd, *irz = in->irz, *irdz = in->irdz, *laz = in->laz, *ladz = in->ladz;
@@ -759,7 +759,7 @@ static INLINE Py_ssize_t forward(const Inputs *in, Py_ssize_t ka, Py_ssize_t kb,
             }
         }
         if (!pd_diag(P)) return k;
-        memcpy(x_filt + N * k, x, sizeof(x));
+        if (x_filt) memcpy(x_filt + N * (k - xo), x, sizeof(x));
         if (Pbuf) pack(P, Pbuf + NP * (k - off));
         if (k < n - 1) {
             double dt = t[k + 1] - t[k];
@@ -792,10 +792,11 @@ static INLINE Py_ssize_t forward(const Inputs *in, Py_ssize_t ka, Py_ssize_t kb,
    2 backward pass.  nb > 0 (with smooth, where the smoothed covariances are not written back): the backward pass
    goes through blocks of nb steps, last first, each block's forward pass run again from its checkpoint (ck:
    ceil(n / nb) * NCK items), so that x_pred (nb + 1 rows), Pbuf and pred (nb rows) hold one block -- the same
-   numbers as with the whole history (nb = 0), for a second forward pass. */
-HOT static Py_ssize_t run(const Inputs *in, const double *x0, const double *P0, double *x_filt, double *x_pred,
-                          double *x_s, double *Pbuf, double *resid, double *std, double *pred, Py_ssize_t nb, double *ck,
-                          int *phase) {
+   numbers as with the whole history (nb = 0), for a second forward pass; with xf_block, x_filt too holds one
+   block (nb rows: the filtered states are not kept). */
+HOT static Py_ssize_t run(const Inputs *in, const double *x0, const double *P0, double *x_filt, int xf_block,
+                          double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, double *pred,
+                          Py_ssize_t nb, double *ck, int *phase) {
     const double *par = in->par, *t = in->t, *u = in->u, *mno = in->mno, *qd = in->qd;
     Py_ssize_t n = in->n;
     double g0 = par[0];
@@ -806,10 +807,11 @@ HOT static Py_ssize_t run(const Inputs *in, const double *x0, const double *P0, 
     Py_ssize_t ldx = (Py_ssize_t)par[23], lds = (Py_ssize_t)par[25]; /* x_s, std: 0 row-major, else column-major */
     int blocks = smooth && !write_ps && nb > 0 && nb < n;
     Py_ssize_t fail;
+    xf_block = xf_block && blocks;
     if (blocks)
-        fail = forward(in, 0, n, 0, x0, P0, x_filt, resid, NULL, NULL, NULL, ck, nb, phase);
+        fail = forward(in, 0, n, 0, x0, P0, xf_block ? NULL : x_filt, 0, resid, NULL, NULL, NULL, ck, nb, phase);
     else
-        fail = forward(in, 0, n, 0, x0, P0, x_filt, resid, keep ? x_pred : NULL, keep ? Pbuf : NULL,
+        fail = forward(in, 0, n, 0, x0, P0, x_filt, 0, resid, keep ? x_pred : NULL, keep ? Pbuf : NULL,
                        smooth ? pred : NULL, NULL, 1, phase);
     if (fail >= 0) return fail;
     if (!smooth) return -1;
@@ -820,21 +822,22 @@ HOT static Py_ssize_t run(const Inputs *in, const double *x0, const double *P0, 
     memset(U, 0, sizeof(U));
     for (Py_ssize_t j = nblk - 1; j >= 0; j--) {
         Py_ssize_t k0 = j * bl, k1 = k0 + bl < n ? k0 + bl : n; /* this block's steps; rows k - k0 of the buffers */
+        Py_ssize_t xo = xf_block ? k0 : 0;                        /* and rows k - xo of x_filt */
         if (blocks) {
             const double *c = ck + NCK * j;
-            fail = forward(in, k0, k1, k0, c, c + N, x_filt, resid, x_pred, Pbuf, pred, NULL, 1, phase);
+            fail = forward(in, k0, k1, k0, c, c + N, x_filt, xo, resid, x_pred, Pbuf, pred, NULL, 1, phase);
             if (fail >= 0) return fail;
             if (k1 < n) memcpy(x_pred + N * (k1 - k0), ck + NCK * (j + 1), N * sizeof(double)); /* the next prior */
         }
         if (k1 == n) {
-            memcpy(xs1, x_filt + N * (n - 1), sizeof(xs1));
+            memcpy(xs1, x_filt + N * (n - 1 - xo), sizeof(xs1));
             put_row(x_s, ldx, n - 1, xs1, N);
             unpack(Pbuf + NP * (n - 1 - k0), Ps);
             std_row(xs1, Ps, mno, sd);
             put_row(std, lds, n - 1, sd, NSTD);
         }
         for (Py_ssize_t k = (k1 < n ? k1 : n - 1) - 1; k >= k0; k--) {
-            const double *xf = x_filt + N * k;
+            const double *xf = x_filt + N * (k - xo);
             double *Pk = Pbuf + NP * (k - k0);
             if (k - 2 >= k0) /* the step after next's filtered covariance (2 KB): read while this step computes */
                 for (int i = 0; i < NP; i += 8) PREFETCH(Pk - 2 * NP + i);
@@ -895,7 +898,8 @@ static const char doc_ekf_rts[] =
     "block (upper triangle, 55) for the backward pass, which then does not form them again.  nb > 0 (with smooth and\n"
     "smoothed_cov 0, nb < n): the backward pass goes through blocks of nb steps, each block's forward pass run again\n"
     "from a checkpoint the first pass kept in ck (at least ceil(n / nb) * 506 items); x_pred then holds nb + 1 rows,\n"
-    "P_packed and pred nb rows (the same results as without blocks, to the bit).";
+    "P_packed and pred nb rows (the same results as without blocks, to the bit); x_filt may then hold nb rows too\n"
+    "(the filtered states are not kept: the block's last ones are left in it).";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     Py_ssize_t n;
@@ -915,7 +919,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                                     "la_dz", "par",  "x_filt", "x_pred",   "x_smooth", "P_packed", "resid", "std"};
     Py_ssize_t counts[24] = {n,     6 * n, 3 * n, 3 * n, 3 * n, n,     n,      n,
                              N,     N * N, 9,     3,     6 * n, -2,    -2,     -2,
-                             -2,    NPAR,  N * n, -N,    -1,    -NP,    NRES * n, -1};
+                             -2,    NPAR,  -N,    -N,    -1,    -NP,    NRES * n, -1};
     Buf b[24];
     int k;
     for (k = 0; k < 24; k++) {
@@ -947,6 +951,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
         /* blocks: the backward pass through blocks of nb steps (x_pred nb + 1 rows, P_packed and pred nb) */
         int blocks = par[19] != 0.0 && par[22] == 0.0 && nb > 0 && nb < n;
         Py_ssize_t rows = blocks ? nb : n; /* the rows of P_packed (x_pred: one more with blocks) */
+        int xf_block = blocks && b[18].view.len == 8 * N * nb; /* x_filt: n rows, or with blocks nb */
         /* x_smooth and std: row-major (n rows) where par's ld is 0, else column-major (the whole (m, ld) array,
            this run's rows from column off) */
         Py_ssize_t ldx = (Py_ssize_t)par[23], offx = (Py_ssize_t)par[24], lds = (Py_ssize_t)par[25],
@@ -955,7 +960,10 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                         : b[20].view.len != 8 * N * n;
         int bad_s = lds ? (par[25] != (double)lds || offs < 0 || offs + n > lds || b[23].view.len != 8 * NSTD * lds)
                         : b[23].view.len != 8 * NSTD * n;
-        if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
+        if (b[18].view.len != 8 * N * n && !xf_block) {
+            PyErr_Format(PyExc_ValueError, "ekf_rts: x_filt: expected %zd float64 items (with blocks: or %zd)", N * n,
+                         N * nb);
+        } else if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
             PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
         } else if (ldx < 0 || lds < 0 || bad_x || bad_s) {
             PyErr_Format(PyExc_ValueError,
@@ -976,7 +984,7 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
             Py_BEGIN_ALLOW_THREADS
             Inputs in = {n,    nir,  nla,   p[0],  p[1],  p[2],  p[3],  p[4],  p[5], p[6],
                          p[7], p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17]};
-            fail = run(&in, p[8], p[9], (double *)b[18].view.buf, (double *)b[19].view.buf,
+            fail = run(&in, p[8], p[9], (double *)b[18].view.buf, xf_block, (double *)b[19].view.buf,
                        (double *)b[20].view.buf + (ldx ? offx : 0), (double *)b[21].view.buf,
                        (double *)b[22].view.buf, (double *)b[23].view.buf + (lds ? offs : 0),
                        has_pred ? (double *)bp.view.buf : NULL, blocks ? nb : 0,

@@ -117,7 +117,7 @@ def rts_smooth_table(
         )
     if on_start is not None:
         on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
-    res = _smooth_without_disturbed_mag(inp, cfg, progress, engine)
+    res = _smooth_without_disturbed_mag(inp, cfg, progress, engine, filtered)
     new_meta = dict(meta)
     new_meta["frame"] = frame.to_meta()
     new_meta["hill"] = hill.meta()
@@ -136,12 +136,12 @@ def rts_smooth_table(
 
 
 def _smooth_without_disturbed_mag(
-    inp: SkiJumpInputs, cfg: SmootherConfig, progress: Callable[[int], object] | None, engine: str
+    inp: SkiJumpInputs, cfg: SmootherConfig, progress: Callable[[int], object] | None, engine: str, filtered: bool
 ) -> Smoothed:
-    """:func:`smooth_inputs` (std rows, no covariances kept); with the magnetometer, the samples whose
+    """:func:`smooth_inputs` (std rows, no covariances kept; the filtered states only with ``filtered``); with the magnetometer, the samples whose
     innovations show a disturbance that keeps the field's strength are skipped and the session smoothed again
     (``inp.mag`` and ``inp.mag_disturbed`` updated in place)."""
-    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     if not cfg.use_mag:
         return res
     bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
@@ -150,7 +150,7 @@ def _smooth_without_disturbed_mag(
     raw = inp.mag.copy()
     inp.mag[bad] = np.nan
     del res  # its session-wide arrays (0.7 KB a step) freed before the next run makes its own (issue 38)
-    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     # the flagged stretch may outlast the disturbance (the filter's heading was off for a while): give back the
     # samples that agree with the smoothed attitude, then run once more
     idx = np.flatnonzero(bad)
@@ -160,7 +160,7 @@ def _smooth_without_disturbed_mag(
         bad[idx[agree]] = False
         inp.mag[idx[agree]] = raw[idx[agree]]
         del res
-        res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+        res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     return res
 
