@@ -122,16 +122,19 @@ def rts_smooth_table(
     new_meta["frame"] = frame.to_meta()
     new_meta["hill"] = hill.meta()
     new_meta["rts"] = _rts_meta(inp, res, cfg)
+    msg = (
+        f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
+        f"hill constraints {'on' if cfg.hill_constraints else 'off'}"
+    )
+    # the sensors' arrays on the steps are not read again: freed before the columns are made (issue 38)
+    inp.u, inp.pos, inp.vel, inp.mag = (np.empty((0, w)) for w in (6, 3, 3, 3))
+    inp.clipped = inp.still = None
     # the metadata made, the output columns need only the states and std rows: the run is dropped so that its
     # innovations and (without `filtered`) filtered states are freed before the columns are made, and the
     # states and std rows as their columns are interpolated onto the table's rows (issue 38)
     cols = _step_columns(inp, res, cfg, filtered)
     del res
     cols = _on_rows(schema.floats(table, "t"), inp, cols, cfg, filtered)
-    msg = (
-        f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
-        f"hill constraints {'on' if cfg.hill_constraints else 'off'}"
-    )
     return with_columns(table, cols), new_meta, msg
 
 
