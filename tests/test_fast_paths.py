@@ -92,3 +92,11 @@ def test_interp_columns_matches_interp_rows() -> None:
     for j, name in enumerate(cols):
         assert np.array_equal(np.isnan(got[name]), np.isnan(ref[:, j]))
         assert np.allclose(got[name], ref[:, j], equal_nan=True)
+    # consume=True (rts-smooth, issue 38): the same columns in the same order, taken out of the input as it goes
+    taken = R.interp_columns(rows, t, dict(cols), 1.0, consume=True)
+    assert list(taken) == list(got)
+    for name in cols:
+        np.testing.assert_array_equal(taken[name], got[name])
+    left = dict(cols)
+    R.interp_columns(rows, t, left, 1.0, consume=True)
+    assert left == {}

@@ -10,7 +10,9 @@
  *   with a diagonal R this is algebraically the stacked update; each scalar update is the Joseph form with the
  *   optimal gain, which reduces to the symmetric rank-1 P - (P h)(P h)^T / s (as g g^T with g = P h / sqrt(s));
  * - covariances are stored packed (upper triangle, 253 numbers for 22 states), and the smoothed covariance
- *   overwrites the filtered one in the backward pass;
+ *   overwrites the filtered one in the backward pass; where only the std rows are wanted, a long run keeps them
+ *   for one block of steps at a time: the backward pass runs each block's forward pass again from a checkpoint
+ *   (the prior state and covariance at the block's first step) kept by the first forward pass;
  * - the backward pass forms Phi_k and P_k+1|k again from x_k|k and P_k|k (or reads the forward pass's, pred),
  *   and uses that the parameters are constant states without process noise (eq 22): the rows of the RTS gain
  *   that belong to them are exactly [0 I], so only the 10 rows of the kinematic states are solved for;
@@ -54,8 +56,10 @@
 
 #if SKI_GNU
 #define PREFETCH(p) __builtin_prefetch(p)
+#define INLINE inline __attribute__((always_inline)) /* compiled inside its caller's clone */
 #else
 #define PREFETCH(p) ((void)0)
+#define INLINE inline
 #endif
 
 /* Runtime dispatch: with GCC 11 or later on x86-64 Linux (glibc's ifunc), the hot functions are compiled twice,
@@ -640,35 +644,49 @@ static void smooth_step(double U[N][NW], double Pf[N][N], double Pp[N][N], doubl
    (body velocity and quaternion), the in-run and landing heights (x and z), the in-run's lateral position */
 static const int NZ_Q[4] = {6, 7, 8, 9}, NZ_V[7] = {3, 4, 5, 6, 7, 8, 9}, NZ_H[2] = {0, 2}, NZ_Y[1] = {1};
 
-/* The whole EKF + RTS (kalman.ekf_rts with smoother_engine.model_callables, see the top of this file): the
-   forward pass and (smooth) the backward pass; returns the failing step or -1, *phase 0 update, 1 prediction,
-   2 backward pass */
-HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const double *pos, const double *vel,
-                      const double *mag, const double *inrun, const double *landing, const double *still,
-                      const double *x0, const double *P0,
-                      const double *mno, const double *m_o, const double *qd, const double *irz, const double *irdz,
-                      Py_ssize_t nir, const double *laz, const double *ladz, Py_ssize_t nla, const double *par,
-                      double *x_filt, double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, double *pred,
-                      int *phase) {
+/* The segment's inputs and the loop's constants, as the forward pass reads them */
+typedef struct {
+    Py_ssize_t n, nir, nla;
+    const double *t, *u, *pos, *vel, *mag, *inrun, *landing, *still, *mno, *m_o, *qd, *irz, *irdz, *laz, *ladz, *par;
+} Inputs;
+
+/* the size of a checkpoint: the state and the full covariance at the top of a step (before its updates) */
+#define NCK (N + N * N)
+
+/* The forward pass (eqs 10-16) over the steps ka <= k < kb from the prior (x, P) at step ka: innovations written
+   at row k of resid, filtered states (where x_filt is given) at row k - xo of x_filt; where given, the priors, the packed filtered
+   covariances and (pred, only where the step is not the segment's last) the predictions at row k - off of x_pred,
+   Pbuf and pred, and at every step k that is a multiple of nb the prior (x, P) at ck + NCK * (k / nb).  Returns the
+   failing step or -1, *phase 0 update, 1 prediction.  The same code from the same prior gives the same numbers
+   to the bit: the backward pass runs a block of steps again from its checkpoint.  Always inlined into run (its
+   two calls compiled inside each of run's clones: as one function, the same contractions into FMA as before
+   the forward pass was a function of its own, and the same results to the last bit). */
+static INLINE Py_ssize_t forward(const Inputs *in, Py_ssize_t ka, Py_ssize_t kb, Py_ssize_t off, const double *x_init,
+                                 const double *P_init, double *x_filt, Py_ssize_t xo, double *resid, double *x_pred,
+                                 double *Pbuf, double *pred, double *ck, Py_ssize_t nb, int *phase) {
+    const double *par = in->par, *t = in->t, *u = in->u, *pos = in->pos, *vel = in->vel, *mag = in->mag;
+    const double *inrun = in->inrun, *landing = in->landing, *still = in->still, *mno = in->mno, *m_o = in->m_o;
+    const double *qd = in->qd, *irz = in->irz, *irdz = in->irdz, *laz = in->laz, *ladz = in->ladz;
+    Py_ssize_t n = in->n, nir = in->nir, nla = in->nla;
     double g0 = par[0], rmag = par[7], rcq = par[8], rir = par[9], rhir = par[10], rla = par[11];
     const double *rpos = par + 1, *rvel = par + 4;
     double ir_x0 = par[12], ir_step = par[13], la_x0 = par[14], la_step = par[15];
-    int use_hill = par[16] != 0.0, use_vel = par[17] != 0.0, use_mag = par[18] != 0.0, smooth = par[19] != 0.0;
+    int use_hill = par[16] != 0.0, use_vel = par[17] != 0.0, use_mag = par[18] != 0.0;
     double rzu = par[20];
-    /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
-    int keep = smooth || par[21] != 0.0;
-    int write_ps = par[22] != 0.0; /* the smoothed covariances written back over the filtered ones */
-    Py_ssize_t ldx = (Py_ssize_t)par[23], lds = (Py_ssize_t)par[25]; /* x_s, std: 0 row-major, else column-major */
     double Pa[N][N], Pb[N][N], Phi[10][N], Qd[10][10], Tf[10][N], M[3][3], D[4][3][3];
     double(*P)[N] = Pa, (*Pn)[N] = Pb; /* the covariance and its prediction, swapped after each step */
     double x[N], xn[N], xp[N], h[N]; /* h: each update sets and scalar() reads only the entries it names */
-    memcpy(x, x0, sizeof(x));
-    memcpy(Pa, P0, sizeof(Pa));
+    memcpy(x, x_init, sizeof(x));
+    memcpy(Pa, P_init, sizeof(Pa));
     *phase = 0;
-    for (Py_ssize_t k = 0; k < n; k++) {
+    for (Py_ssize_t k = ka; k < kb; k++) {
         double *rk = resid + NRES * k;
+        if (ck && k % nb == 0) {
+            memcpy(ck + NCK * (k / nb), x, sizeof(x));
+            memcpy(ck + NCK * (k / nb) + N, P, sizeof(Pa));
+        }
         memcpy(xp, x, sizeof(xp));
-        if (keep) memcpy(x_pred + N * k, xp, sizeof(xp));
+        if (x_pred) memcpy(x_pred + N * (k - off), xp, sizeof(xp));
         double nq = sqrt(xp[6] * xp[6] + xp[7] * xp[7] + xp[8] * xp[8] + xp[9] * xp[9]);
         for (int i = 0; i < 4; i++) h[6 + i] = xp[6 + i] / nq;
         rk[0] = -(nq - 1.0);
@@ -741,16 +759,16 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             }
         }
         if (!pd_diag(P)) return k;
-        memcpy(x_filt + N * k, x, sizeof(x));
-        if (keep) pack(P, Pbuf + NP * k);
+        if (x_filt) memcpy(x_filt + N * (k - xo), x, sizeof(x));
+        if (Pbuf) pack(P, Pbuf + NP * (k - off));
         if (k < n - 1) {
             double dt = t[k + 1] - t[k];
             rk4(x, u + 6 * k, u + 6 * (k + 1), dt, g0, mno, xn);
             phi_qd(x, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
             mirror(P);
             predict_cov(P, Phi, Qd, Pn, Tf);
-            if (smooth && pred) { /* what the backward pass would form again at this step */
-                double *o = pred + NT * k;
+            if (pred) { /* what the backward pass would form again at this step */
+                double *o = pred + NT * (k - off);
                 memcpy(o, Tf, sizeof(Tf));
                 o += 10 * N;
                 for (int i = 0; i < 10; i++)
@@ -766,64 +784,108 @@ HOT static Py_ssize_t run(Py_ssize_t n, const double *t, const double *u, const 
             memcpy(x, xn, sizeof(x));
         }
     }
+    return -1;
+}
+
+/* The whole EKF + RTS (kalman.ekf_rts with smoother_engine.model_callables, see the top of this file): the
+   forward pass and (smooth) the backward pass; returns the failing step or -1, *phase 0 update, 1 prediction,
+   2 backward pass.  nb > 0 (with smooth, where the smoothed covariances are not written back): the backward pass
+   goes through blocks of nb steps, last first, each block's forward pass run again from its checkpoint (ck:
+   ceil(n / nb) * NCK items), so that x_pred (nb + 1 rows), Pbuf and pred (nb rows) hold one block -- the same
+   numbers as with the whole history (nb = 0), for a second forward pass; with xf_block, x_filt too holds one
+   block (nb rows: the filtered states are not kept). */
+HOT static Py_ssize_t run(const Inputs *in, const double *x0, const double *P0, double *x_filt, int xf_block,
+                          double *x_pred, double *x_s, double *Pbuf, double *resid, double *std, double *pred,
+                          Py_ssize_t nb, double *ck, int *phase) {
+    const double *par = in->par, *t = in->t, *u = in->u, *mno = in->mno, *qd = in->qd;
+    Py_ssize_t n = in->n;
+    double g0 = par[0];
+    int smooth = par[19] != 0.0;
+    /* the predictions and filtered covariances are kept for the backward pass, or when asked for */
+    int keep = smooth || par[21] != 0.0;
+    int write_ps = par[22] != 0.0; /* the smoothed covariances written back over the filtered ones */
+    Py_ssize_t ldx = (Py_ssize_t)par[23], lds = (Py_ssize_t)par[25]; /* x_s, std: 0 row-major, else column-major */
+    int blocks = smooth && !write_ps && nb > 0 && nb < n;
+    Py_ssize_t fail;
+    xf_block = xf_block && blocks;
+    if (blocks)
+        fail = forward(in, 0, n, 0, x0, P0, xf_block ? NULL : x_filt, 0, resid, NULL, NULL, NULL, ck, nb, phase);
+    else
+        fail = forward(in, 0, n, 0, x0, P0, x_filt, 0, resid, keep ? x_pred : NULL, keep ? Pbuf : NULL,
+                       smooth ? pred : NULL, NULL, 1, phase);
+    if (fail >= 0) return fail;
     if (!smooth) return -1;
     /* backward pass (eqs 17-21); the smoothed covariance overwrites the filtered one (where write_ps) */
-    double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], U[N][NW];
+    double Ps[N][N], Pf[N][N], Pp[N][N], T[10][N], Y[N][10], U[N][NW], Phi[10][N], Qd[10][10];
     double xs[N], xs1[N], sd[NSTD]; /* xs1: the smoothed state of the step after (the previous iteration's) */
-    memcpy(xs1, x_filt + N * (n - 1), sizeof(xs1));
-    put_row(x_s, ldx, n - 1, xs1, N);
-    unpack(Pbuf + NP * (n - 1), Ps);
-    std_row(xs1, Ps, mno, sd);
-    put_row(std, lds, n - 1, sd, NSTD);
+    Py_ssize_t bl = blocks ? nb : n, nblk = (n + bl - 1) / bl;
     memset(U, 0, sizeof(U));
-    for (Py_ssize_t k = n - 2; k >= 0; k--) {
-        const double *xf = x_filt + N * k;
-        if (k >= 2) /* the step after next's filtered covariance (2 KB): read from memory while this step computes */
-            for (int i = 0; i < NP; i += 8) PREFETCH(Pbuf + NP * (k - 2) + i);
-        unpack(Pbuf + NP * k, Pf);
-        if (pred) { /* the forward pass's T and kinematic block; the rest of P_k+1|k is T's and Pf's (outer_blocks) */
-            const double *o = pred + NT * k;
-            if (k >= 1)
-                for (int i = 0; i < NT; i += 8) PREFETCH(o - NT + i);
-            memcpy(T, o, sizeof(T));
-            o += 10 * N;
-            for (int i = 0; i < 10; i++)
-                for (int j = i; j < 10; j++) {
-                    Pp[i][j] = *o;
-                    Pp[j][i] = *o++;
-                }
-            outer_blocks(T, Pf, Pp);
-        } else {
-            double dt = t[k + 1] - t[k];
-            phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
-            predict_cov(Pf, Phi, Qd, Pp, T);
+    for (Py_ssize_t j = nblk - 1; j >= 0; j--) {
+        Py_ssize_t k0 = j * bl, k1 = k0 + bl < n ? k0 + bl : n; /* this block's steps; rows k - k0 of the buffers */
+        Py_ssize_t xo = xf_block ? k0 : 0;                        /* and rows k - xo of x_filt */
+        if (blocks) {
+            const double *c = ck + NCK * j;
+            fail = forward(in, k0, k1, k0, c, c + N, x_filt, xo, resid, x_pred, Pbuf, pred, NULL, 1, phase);
+            if (fail >= 0) return fail;
+            if (k1 < n) memcpy(x_pred + N * (k1 - k0), ck + NCK * (j + 1), N * sizeof(double)); /* the next prior */
         }
-        for (int i = 0; i < N; i++)
-            if (!(Pp[i][i] > 0.0)) {
+        if (k1 == n) {
+            memcpy(xs1, x_filt + N * (n - 1 - xo), sizeof(xs1));
+            put_row(x_s, ldx, n - 1, xs1, N);
+            unpack(Pbuf + NP * (n - 1 - k0), Ps);
+            std_row(xs1, Ps, mno, sd);
+            put_row(std, lds, n - 1, sd, NSTD);
+        }
+        for (Py_ssize_t k = (k1 < n ? k1 : n - 1) - 1; k >= k0; k--) {
+            const double *xf = x_filt + N * (k - xo);
+            double *Pk = Pbuf + NP * (k - k0);
+            if (k - 2 >= k0) /* the step after next's filtered covariance (2 KB): read while this step computes */
+                for (int i = 0; i < NP; i += 8) PREFETCH(Pk - 2 * NP + i);
+            unpack(Pk, Pf);
+            if (pred) { /* the forward pass's T and kinematic block; the rest of P_k+1|k is T's and Pf's (outer_blocks) */
+                const double *o = pred + NT * (k - k0);
+                if (k - 1 >= k0)
+                    for (int i = 0; i < NT; i += 8) PREFETCH(o - NT + i);
+                memcpy(T, o, sizeof(T));
+                o += 10 * N;
+                for (int i = 0; i < 10; i++)
+                    for (int jj = i; jj < 10; jj++) {
+                        Pp[i][jj] = *o;
+                        Pp[jj][i] = *o++;
+                    }
+                outer_blocks(T, Pf, Pp);
+            } else {
+                double dt = t[k + 1] - t[k];
+                phi_qd(xf, u + 6 * k, dt, g0, mno, qd + 6 * k, Phi, Qd);
+                predict_cov(Pf, Phi, Qd, Pp, T);
+            }
+            for (int i = 0; i < N; i++)
+                if (!(Pp[i][i] > 0.0)) {
+                    *phase = 2;
+                    return k + 1;
+                }
+            /* the gain's kinematic rows: Ct = C[:10]^T = Pp^-1 (Phi P)[:, :10] by the two triangular solves;
+               (Phi P)[:10] is predict_cov's T, its other rows are P's */
+            for (int i = 0; i < N; i++)
+                for (int jj = 0; jj < 10; jj++) Y[i][jj] = i < 10 ? T[i][jj] : Pf[i][jj];
+            if (!chol_solve(Pp, Y, U)) {
                 *phase = 2;
                 return k + 1;
             }
-        /* the gain's kinematic rows: Ct = C[:10]^T = Pp^-1 (Phi P)[:, :10] by the two triangular solves;
-           (Phi P)[:10] is predict_cov's T, its other rows are P's */
-        for (int i = 0; i < N; i++)
-            for (int j = 0; j < 10; j++) Y[i][j] = i < 10 ? T[i][j] : Pf[i][j];
-        if (!chol_solve(Pp, Y, U)) {
-            *phase = 2;
-            return k + 1;
+            smooth_step(U, Pf, Pp, Ps, xf, x_pred + N * (k + 1 - k0), xs1, xs);
+            if (write_ps) pack(Ps, Pk);
+            std_row(xs, Ps, mno, sd);
+            put_row(x_s, ldx, k, xs, N);
+            put_row(std, lds, k, sd, NSTD);
+            memcpy(xs1, xs, sizeof(xs1));
         }
-        smooth_step(U, Pf, Pp, Ps, xf, x_pred + N * (k + 1), xs1, xs);
-        if (write_ps) pack(Ps, Pbuf + NP * k);
-        std_row(xs, Ps, mno, sd);
-        put_row(x_s, ldx, k, xs, N);
-        put_row(std, lds, k, sd, NSTD);
-        memcpy(xs1, xs, sizeof(xs1));
     }
     return -1;
 }
 
 static const char doc_ekf_rts[] =
     "ekf_rts(n, t, u, pos, vel, mag, inrun, landing, still, x0, P0, mno, m_o, qd, ir_z, ir_dz, la_z, la_dz, par,\n"
-    "        x_filt, x_pred, x_smooth, P_packed, resid, std[, pred]) -> (fail, phase)\n\n"
+    "        x_filt, x_pred, x_smooth, P_packed, resid, std[, pred[, nb, ck]]) -> (fail, phase)\n\n"
     "The ski-jump EKF + RTS (kalman.ekf_rts with smoother_engine.model_callables) on float64 buffers (inrun as 0/1, still a weight); par holds g0,\n"
     "r_pos (3), r_vel (3), r_mag, r_cq, r_ir, r_hir, r_la, ir_x0, ir_step, la_x0, la_step, use_hill, use_vel,\n"
     "use_mag, smooth, r_zupt (variances, not sigmas), keep_cov (0: without smooth, x_pred and P_packed are not\n"
@@ -833,14 +895,19 @@ static const char doc_ekf_rts[] =
     "Outputs are written in place; fail is -1 or the step at which a covariance stopped being positive\n"
     "definite, phase 0 update, 1 prediction, 2 backward pass.  pred (optional, with smooth; at least (n - 1) * 275\n"
     "items): scratch where the forward pass keeps each step's Phi_top P (10 x 22) and its prediction's kinematic\n"
-    "block (upper triangle, 55) for the backward pass, which then does not form them again.";
+    "block (upper triangle, 55) for the backward pass, which then does not form them again.  nb > 0 (with smooth and\n"
+    "smoothed_cov 0, nb < n): the backward pass goes through blocks of nb steps, each block's forward pass run again\n"
+    "from a checkpoint the first pass kept in ck (at least ceil(n / nb) * 506 items); x_pred then holds nb + 1 rows,\n"
+    "P_packed and pred nb rows (the same results as without blocks, to the bit); x_filt may then hold nb rows too\n"
+    "(the filtered states are not kept: the block's last ones are left in it).";
 
 static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
     Py_ssize_t n;
-    PyObject *o[24], *opred = Py_None;
-    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOOO|O", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
+    Py_ssize_t nb = 0;
+    PyObject *o[24], *opred = Py_None, *ock = Py_None;
+    if (!PyArg_ParseTuple(args, "nOOOOOOOOOOOOOOOOOOOOOOOO|OnO", &n, &o[0], &o[1], &o[2], &o[3], &o[4], &o[5], &o[6],
                           &o[7], &o[8], &o[9], &o[10], &o[11], &o[12], &o[13], &o[14], &o[15], &o[16], &o[17], &o[18],
-                          &o[19], &o[20], &o[21], &o[22], &o[23], &opred))
+                          &o[19], &o[20], &o[21], &o[22], &o[23], &opred, &nb, &ock))
         return NULL;
     if (n < 1) {
         PyErr_SetString(PyExc_ValueError, "ekf_rts: n must be at least 1");
@@ -852,27 +919,39 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                                     "la_dz", "par",  "x_filt", "x_pred",   "x_smooth", "P_packed", "resid", "std"};
     Py_ssize_t counts[24] = {n,     6 * n, 3 * n, 3 * n, 3 * n, n,     n,      n,
                              N,     N * N, 9,     3,     6 * n, -2,    -2,     -2,
-                             -2,    NPAR,  N * n, -N,    -1,    -NP,    NRES * n, -1};
+                             -2,    NPAR,  -N,    -N,    -1,    -NP,    NRES * n, -1};
     Buf b[24];
     int k;
     for (k = 0; k < 24; k++) {
         if (get_buf(o[k], &b[k], counts[k], k >= 18, names[k]) < 0) break;
     }
     PyObject *res = NULL;
-    Buf bp;
-    int has_pred = 0;
-    if (k == 24 && opred != Py_None) { /* at least n - 1 steps of NT */
-        if (get_buf(opred, &bp, -NT * (n > 1 ? n - 1 : 1), 1, "pred") < 0) {
+    Buf bp, bc;
+    int has_pred = 0, has_ck = 0;
+    if (k == 24 && opred != Py_None) { /* at least one step of NT (the length is checked below) */
+        if (get_buf(opred, &bp, -NT, 1, "pred") < 0) {
             release(&bp, 1);
             k = 23; /* no run; all 24 released below */
         } else {
             has_pred = 1;
         }
     }
+    if (k == 24 && ock != Py_None) {
+        if (get_buf(ock, &bc, -NCK, 1, "ck") < 0) {
+            release(&bc, 1);
+            k = 23;
+        } else {
+            has_ck = 1;
+        }
+    }
     if (k == 24) {
         Py_ssize_t nir = b[13].view.len / 8, nla = b[15].view.len / 8;
         const double *par = (const double *)b[17].view.buf;
         int keep = par[19] != 0.0 || par[21] != 0.0; /* smooth or keep_cov: x_pred and P_packed are written */
+        /* blocks: the backward pass through blocks of nb steps (x_pred nb + 1 rows, P_packed and pred nb) */
+        int blocks = par[19] != 0.0 && par[22] == 0.0 && nb > 0 && nb < n;
+        Py_ssize_t rows = blocks ? nb : n; /* the rows of P_packed (x_pred: one more with blocks) */
+        int xf_block = blocks && b[18].view.len == 8 * N * nb; /* x_filt: n rows, or with blocks nb */
         /* x_smooth and std: row-major (n rows) where par's ld is 0, else column-major (the whole (m, ld) array,
            this run's rows from column off) */
         Py_ssize_t ldx = (Py_ssize_t)par[23], offx = (Py_ssize_t)par[24], lds = (Py_ssize_t)par[25],
@@ -881,31 +960,41 @@ static PyObject *py_ekf_rts(PyObject *self, PyObject *args) {
                         : b[20].view.len != 8 * N * n;
         int bad_s = lds ? (par[25] != (double)lds || offs < 0 || offs + n > lds || b[23].view.len != 8 * NSTD * lds)
                         : b[23].view.len != 8 * NSTD * n;
-        if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
+        if (b[18].view.len != 8 * N * n && !xf_block) {
+            PyErr_Format(PyExc_ValueError, "ekf_rts: x_filt: expected %zd float64 items (with blocks: or %zd)", N * n,
+                         N * nb);
+        } else if (b[14].view.len / 8 != nir || b[16].view.len / 8 != nla) {
             PyErr_SetString(PyExc_ValueError, "ekf_rts: profile tables z and dz differ in length");
         } else if (ldx < 0 || lds < 0 || bad_x || bad_s) {
             PyErr_Format(PyExc_ValueError,
                          "ekf_rts: x_smooth and std: expected %zd x 22 and %zd x 28 float64 items (row-major), or "
                          "22 x ld and 28 x ld with off + n <= ld (column-major)", n, n);
-        } else if (keep && (b[19].view.len != 8 * N * n || b[21].view.len != 8 * NP * n)) {
-            PyErr_Format(PyExc_ValueError, "ekf_rts: x_pred and P_packed: expected %zd and %zd float64 items", N * n,
-                         NP * n);
+        } else if (keep && (b[19].view.len != 8 * N * (rows + blocks) || b[21].view.len != 8 * NP * rows)) {
+            PyErr_Format(PyExc_ValueError, "ekf_rts: x_pred and P_packed: expected %zd and %zd float64 items",
+                         N * (rows + blocks), NP * rows);
+        } else if (has_pred && bp.view.len < 8 * NT * (blocks ? nb : (n > 1 ? n - 1 : 1))) {
+            PyErr_SetString(PyExc_ValueError, "ekf_rts: pred: expected at least n - 1 (with blocks nb) rows of 275");
+        } else if (nb < 0 || (blocks && (!has_ck || bc.view.len < 8 * NCK * ((n + nb - 1) / nb)))) {
+            PyErr_SetString(PyExc_ValueError, "ekf_rts: nb >= 0; with blocks, ck: at least ceil(n / nb) * 506 items");
         } else {
             const double *p[18];
             for (int i = 0; i < 18; i++) p[i] = (const double *)b[i].view.buf;
             int phase = 0;
             Py_ssize_t fail;
             Py_BEGIN_ALLOW_THREADS
-            fail = run(n, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
-                       p[14], nir, p[15], p[16], nla, p[17], (double *)b[18].view.buf, (double *)b[19].view.buf,
+            Inputs in = {n,    nir,  nla,   p[0],  p[1],  p[2],  p[3],  p[4],  p[5], p[6],
+                         p[7], p[10], p[11], p[12], p[13], p[14], p[15], p[16], p[17]};
+            fail = run(&in, p[8], p[9], (double *)b[18].view.buf, xf_block, (double *)b[19].view.buf,
                        (double *)b[20].view.buf + (ldx ? offx : 0), (double *)b[21].view.buf,
                        (double *)b[22].view.buf, (double *)b[23].view.buf + (lds ? offs : 0),
-                       has_pred ? (double *)bp.view.buf : NULL, &phase);
+                       has_pred ? (double *)bp.view.buf : NULL, blocks ? nb : 0,
+                       has_ck ? (double *)bc.view.buf : NULL, &phase);
             Py_END_ALLOW_THREADS
             res = Py_BuildValue("ni", fail, phase);
         }
     }
     if (has_pred) release(&bp, 1);
+    if (has_ck) release(&bc, 1);
     release(b, k < 24 ? k + 1 : 24); /* the buffers after the one that failed were never taken */
     return res;
 }

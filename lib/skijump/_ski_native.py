@@ -45,6 +45,14 @@ NPRED = 10 * N + 55
 #: smooth_inputs keeps them only where the longest segment is at most a third of the session, and at most
 #: this long (36 MB).
 PRED_MAX_STEPS = 16384
+#: Steps of a block of the backward pass (issue 38): where the smoothed covariances are not kept, a run longer
+#: than this keeps the forward pass's priors and covariances one block at a time (2.2 KB/step, 9 MB), each
+#: block's forward pass run again from a checkpoint of the first (the prior state and covariance at the
+#: block's first step, 4 KB): the memory of a long session no longer grows by 2.2 KB/step, for a second
+#: forward pass; the same numbers to the bit.
+BLOCK_STEPS = 4096
+#: items of a checkpoint: the state and the full covariance at the top of a step
+NCK = N + N * N
 
 
 def unpack_many(packed: np.ndarray, idx: np.ndarray | None = None) -> np.ndarray:
@@ -126,11 +134,17 @@ def ski_ekf_rts(
     ``out`` (with ``smooth``): ``(x_filt, x_smooth, resid, std)`` arrays of shapes (n, 22), (n, 22),
     (n, NRES), (n, NSTD) to write into (C-contiguous float64, e.g. a segment's rows of the session's arrays:
     no concatenation afterwards; ``x_smooth`` and ``std`` may instead be rows of :func:`column_outputs`'
-    column-major arrays); ``resid`` is set to NaN first.  ``work``: ``(x_pred, P_packed)`` scratch
-    arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would have their pages
-    zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the covariances are not
-    returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of :data:`NPRED`)
-    keeps each step's prediction from the forward pass for the backward pass (same results, to the bit).
+    column-major arrays); ``resid`` is set to NaN first.  ``x_filt`` None: the filtered states are not kept
+    (the returned ones are an empty (0, 22) array; their scratch is ``work``'s fourth array where it has one,
+    of at least n rows or, with blocks, ``nb``: 0.2 KB/step less on a long run).  ``work``: ``(x_pred,
+    P_packed)`` scratch arrays of at least n rows (22 and 253 columns) reused from run to run (fresh ones would
+    have their pages zeroed by the kernel on first touch, ~2 % of a multi-jump day); only where the
+    covariances are not returned (``smoothed_cov=False``).  A third array of ``work`` (at least n - 1 rows of
+    :data:`NPRED`) keeps each step's prediction from the forward pass for the backward pass (same results, to
+    the bit; None: none kept).  Where ``work``'s covariance array has fewer rows than the run (``nb`` of them:
+    :func:`sportfusion.skijump.smoother_engine.c_buffers`), the backward pass goes through blocks of ``nb``
+    steps, each block's forward pass run again from a checkpoint (``work``'s first array then has ``nb + 1``
+    rows, its third ``nb``): the same results, to the bit.
     Raises RuntimeError when the extension is not built (call :func:`native` first).
     """
     mod = native()
@@ -138,17 +152,31 @@ def ski_ekf_rts(
         raise RuntimeError("the C extension sportfusion.skijump._ski_c is not built")
     n = int(np.asarray(t).size)
     keep = bool(smooth) or bool(filtered_cov)
-    pred = None
+    pred = ck = None
+    nb = 0
     if work is not None and smooth and not smoothed_cov:
-        x_pred, pbuf = work[0][:n], work[1][:n]
-        if len(work) > 2 and work[2].shape[0] >= n - 1:
-            pred = work[2]
+        if n > work[1].shape[0]:  # blocks of nb steps
+            nb = work[1].shape[0]
+            x_pred, pbuf = work[0][: nb + 1], work[1]
+            ck = np.empty(((n + nb - 1) // nb, NCK))
+            if len(work) > 2 and work[2] is not None:
+                pred = work[2][:nb]
+        else:
+            x_pred, pbuf = work[0][:n], work[1][:n]
+            if len(work) > 2 and work[2] is not None and work[2].shape[0] >= n - 1:
+                pred = work[2]
     else:
         x_pred = np.empty((n, N) if keep else (1, N))  # the C side checks the sizes only where it writes
         pbuf = np.empty((n, NP) if keep else (1, NP))
+    kept_filt = True
     if out is not None and smooth:
         x_filt, x_s, resid, std = out
         resid.fill(np.nan)
+        if x_filt is None:  # not kept: scratch for the backward pass, one block of them where it runs in blocks
+            kept_filt = False
+            rows = nb or n
+            has = work is not None and len(work) > 3 and work[3].shape[0] >= rows
+            x_filt = work[3][:rows] if has else np.empty((rows, N))  # type: ignore[index]
     else:
         x_filt = np.empty((n, N))
         x_s = np.empty((n, N)) if smooth else x_filt
@@ -177,9 +205,13 @@ def ski_ekf_rts(
         resid,
         std_buf,
         pred,
+        nb,
+        ck,
     )
     if not keep or (smooth and not smoothed_cov):
         pbuf = np.empty((0, NP))
+    if not kept_filt:
+        x_filt = np.empty((0, N))
     if fail >= 0:
         return x_filt, x_filt, pbuf, resid, fail, phase, np.empty((0, NSTD))
     return x_filt, x_s, pbuf, resid, -1, 0, std

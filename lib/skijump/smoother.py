@@ -117,8 +117,7 @@ def rts_smooth_table(
         )
     if on_start is not None:
         on_start((2 * inp.t.size - 1) * max(cfg.passes, 1))
-    res = _smooth_without_disturbed_mag(inp, cfg, progress, engine)
-    cols = _output_columns(schema.floats(table, "t"), inp, res, cfg, filtered)
+    res = _smooth_without_disturbed_mag(inp, cfg, progress, engine, filtered)
     new_meta = dict(meta)
     new_meta["frame"] = frame.to_meta()
     new_meta["hill"] = hill.meta()
@@ -127,16 +126,25 @@ def rts_smooth_table(
         f"{inp.t.size} IMU steps, {int(np.isfinite(inp.pos[:, 0]).sum())} GNSS fixes, {len(inp.jumps)} jump(s); "
         f"hill constraints {'on' if cfg.hill_constraints else 'off'}"
     )
+    # the sensors' arrays on the steps are not read again: freed before the columns are made (issue 38)
+    inp.u, inp.pos, inp.vel, inp.mag = (np.empty((0, w)) for w in (6, 3, 3, 3))
+    inp.clipped = inp.still = None
+    # the metadata made, the output columns need only the states and std rows: the run is dropped so that its
+    # innovations and (without `filtered`) filtered states are freed before the columns are made, and the
+    # states and std rows as their columns are interpolated onto the table's rows (issue 38)
+    cols = _step_columns(inp, res, cfg, filtered)
+    del res
+    cols = _on_rows(schema.floats(table, "t"), inp, cols, cfg, filtered)
     return with_columns(table, cols), new_meta, msg
 
 
 def _smooth_without_disturbed_mag(
-    inp: SkiJumpInputs, cfg: SmootherConfig, progress: Callable[[int], object] | None, engine: str
+    inp: SkiJumpInputs, cfg: SmootherConfig, progress: Callable[[int], object] | None, engine: str, filtered: bool
 ) -> Smoothed:
-    """:func:`smooth_inputs` (std rows, no covariances kept); with the magnetometer, the samples whose
+    """:func:`smooth_inputs` (std rows, no covariances kept; the filtered states only with ``filtered``); with the magnetometer, the samples whose
     innovations show a disturbance that keeps the field's strength are skipped and the session smoothed again
     (``inp.mag`` and ``inp.mag_disturbed`` updated in place)."""
-    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     if not cfg.use_mag:
         return res
     bad = mag_innovation_outliers(res.residuals.get("mag"), inp.t, cfg.r_mag)
@@ -144,7 +152,8 @@ def _smooth_without_disturbed_mag(
         return res
     raw = inp.mag.copy()
     inp.mag[bad] = np.nan
-    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+    del res  # its session-wide arrays (0.7 KB a step) freed before the next run makes its own (issue 38)
+    res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     # the flagged stretch may outlast the disturbance (the filter's heading was off for a while): give back the
     # samples that agree with the smoothed attitude, then run once more
     idx = np.flatnonzero(bad)
@@ -153,22 +162,29 @@ def _smooth_without_disturbed_mag(
     if agree.any():
         bad[idx[agree]] = False
         inp.mag[idx[agree]] = raw[idx[agree]]
-        res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False)
+        del res
+        res = smooth_inputs(inp, cfg, progress, engine, keep_cov=False, keep_filtered=filtered)
     inp.mag_disturbed = bad if inp.mag_disturbed is None else inp.mag_disturbed | bad
     return res
 
 
-def _output_columns(
-    t_rows: np.ndarray, inp: SkiJumpInputs, res: Smoothed, cfg: SmootherConfig, filtered: bool
-) -> dict[str, np.ndarray]:
-    """The estimate, std and constraint columns on the table's rows ``t_rows`` [s]."""
+def _step_columns(inp: SkiJumpInputs, res: Smoothed, cfg: SmootherConfig, filtered: bool) -> dict[str, np.ndarray]:
+    """The estimate, std and constraint columns at the IMU steps (many of them views of ``res``' arrays)."""
     cols = estimate_columns(res.x_smooth, res.cov, inp, var=res.var, std=res.std)
     cols.update(constraint_residuals(res.x_smooth, inp, cfg.hill_constraints))
     if filtered:
         cols.update(estimate_columns(res.x_filt, None, inp, prefix="filt_"))
+    return cols
+
+
+def _on_rows(
+    t_rows: np.ndarray, inp: SkiJumpInputs, cols: dict[str, np.ndarray], cfg: SmootherConfig, filtered: bool
+) -> dict[str, np.ndarray]:
+    """The columns at the steps (:func:`_step_columns`) on the table's rows ``t_rows`` [s]; ``cols`` is emptied
+    as they are interpolated (each step column freed once no other column needs its array)."""
     if t_rows.size == inp.t.size and np.array_equal(t_rows, inp.t):
         return cols  # every row is an IMU step: nothing to interpolate (the quaternions are unit)
-    out = interp_columns(t_rows, inp.t, cols, cfg.max_gap)
+    out = interp_columns(t_rows, inp.t, cols, cfg.max_gap, consume=True)
     # quaternions interpolated linearly: renormalise
     for pre in ("", "filt_") if filtered else ("",):
         qs = [out[f"{pre}q{k}"] for k in range(4)]

@@ -56,14 +56,18 @@ def euler_jacobian(q: np.ndarray) -> np.ndarray:
 
 
 def interp_columns(
-    t_rows: np.ndarray, t: np.ndarray, cols: dict[str, np.ndarray], max_gap: float
+    t_rows: np.ndarray, t: np.ndarray, cols: dict[str, np.ndarray], max_gap: float, consume: bool = False
 ) -> dict[str, np.ndarray]:
     """:func:`_interp_rows` column by column (no (rows, columns) stack): ``cols`` at the steps ``t`` [s] ->
-    the table's rows ``t_rows`` [s], linear in time, NaN outside the IMU segments (gaps over ``max_gap``)."""
+    the table's rows ``t_rows`` [s], linear in time, NaN outside the IMU segments (gaps over ``max_gap``).
+
+    ``consume``: each column is taken out of ``cols`` as it is interpolated (``cols`` is left empty), so that
+    the columns at the steps are freed along the way rather than held beside all the new ones (issue 38)."""
     segs = segments(t, max_gap)
     inside = [(a, b, np.flatnonzero((t_rows >= t[a]) & (t_rows <= t[b - 1]))) for a, b in segs]
     out = {}
-    for name, v in cols.items():
+    for name in list(cols):
+        v = cols.pop(name) if consume else cols[name]
         o = np.full(t_rows.size, np.nan)
         for a, b, rows in inside:
             o[rows] = np.interp(t_rows[rows], t[a:b], v[a:b])

@@ -62,6 +62,7 @@ def smooth_inputs(
     progress: Callable[[int], object] | None = None,
     engine: str = "auto",
     keep_cov: bool = True,
+    keep_filtered: bool = True,
 ) -> Smoothed:
     """Run the EKF + RTS smoother over the prepared inputs, segment by segment (raises InputError when it diverges).
 
@@ -79,6 +80,9 @@ def smooth_inputs(
         Keep the smoothed covariances for ``Smoothed.cov`` / ``Smoothed.var`` (2 KB per step).  False where
         the C engine's ``std`` rows are all that is wanted: ``cov``/``var`` then raise RuntimeError (the
         numpy engine, which has no ``std`` rows, keeps them regardless).
+    keep_filtered : bool
+        Keep the filtered states (``Smoothed.x_filt``).  False (with ``keep_cov`` False, the C engine): they
+        are not kept (``x_filt`` is then an empty (0, 22) array; 0.2 KB per step less), issue 38.
 
     The passes over each segment are those of the module text; ``Smoothed.passes`` counts the runs per
     segment, ``Smoothed.gnss_latency`` the latency applied per segment [s].
@@ -86,7 +90,7 @@ def smooth_inputs(
     use_c = engine_.compiled(engine)
     if use_c:  # each segment's final run writes its rows of the session's arrays: no concatenation
         n_max = max(b - a for a, b in segments(inp.t, cfg.max_gap))
-        whole, work = engine_.c_buffers(inp.t.size, n_max, keep_cov)
+        whole, work = engine_.c_buffers(inp.t.size, n_max, keep_cov, keep_filtered)
     else:
         whole = work = None
     runs, npass, lat, wild = [], [], [], []
@@ -97,7 +101,7 @@ def smooth_inputs(
                 f"the IMU segment {seg.t[0]:.2f}-{seg.t[-1]:.2f} s has no GNSS fix (or a single sample); "
                 "expected GNSS during every recorded stretch"
             )
-        rows = tuple(w[a:b] for w in whole) if whole is not None else None
+        rows = tuple(None if w is None else w[a:b] for w in whole) if whole is not None else None
         runner = _Runner(seg, cfg, use_c, keep_cov, rows, work, progress)
         try:
             done, n, tau, n_wild = _smooth_segment(seg, cfg, runner)
@@ -122,8 +126,8 @@ class _Runner:
         cfg: SmootherConfig,
         use_c: bool,
         keep_cov: bool,
-        rows: tuple[np.ndarray, ...] | None,
-        work: tuple[np.ndarray, ...] | None,
+        rows: tuple[np.ndarray | None, ...] | None,
+        work: tuple[np.ndarray | None, ...] | None,
         progress: Callable[[int], object] | None,
     ) -> None:
         self.seg, self.cfg, self.use_c, self.keep_cov = seg, cfg, use_c, keep_cov
@@ -294,7 +298,7 @@ def _collect(
     runs: list[Run],
     npass: list[int],
     lat: list[float | None],
-    whole: tuple[np.ndarray, ...] | None,
+    whole: tuple[np.ndarray | None, ...] | None,
     keep_cov: bool,
 ) -> Smoothed:
     """The segments' final runs as one :class:`Smoothed` over the session's steps."""
@@ -327,8 +331,11 @@ def _collect(
             i += P.shape[0]
         return out
 
-    if whole is not None:  # every segment's last run wrote its rows (C engine)
-        return Smoothed(whole[0], whole[1], cov, var, engine_.residual_blocks(whole[2]), npass, lat, whole[3])
+    if whole is not None:  # every segment's last run wrote its rows (C engine; the filtered states: where kept)
+        x_f, x_s, resid, std = whole
+        assert x_s is not None and resid is not None
+        x_f = np.empty((0, mdl.N)) if x_f is None else x_f
+        return Smoothed(x_f, x_s, cov, var, engine_.residual_blocks(resid), npass, lat, std)
     if len(runs) == 1:  # one segment: its arrays as they are (a copy of 60k steps costs ~10 ms per 10 MB)
         r = runs[0]
         return Smoothed(r.x_filt, r.x_smooth, cov, var, r.residuals, npass, lat, r.std)
