@@ -33,9 +33,6 @@ SUBCOMMANDS = {"plot": ("plot_figures",), "simulate": ("simulate_",)}
 SIM_ALLOWED = {"core", "sim", "data"}
 #: (simulator module or package prefix, imported module) -> why it is allowed
 SIM_EXCEPTIONS = {
-    ("sportfusion.skijump.sim", "sportfusion.skijump.hillfile"): (
-        "venue truth: the certified hill profile is data the simulator and the estimator share, not model code"
-    ),
     ("sportfusion.skirace.sim", "sportfusion.skirace.attitude"): (
         "Earth-rotation terms (OMEGA_EARTH, coriolis_ned: textbook physics below 0.01 m/s^2), not the "
         "estimator's simplification; to move to the core with the ski-racing part of issue 39"

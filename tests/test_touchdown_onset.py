@@ -58,13 +58,14 @@ def test_onset_refused_where_the_fit_is_not_credible():
 def fine_landing():
     """The simulator's truth specific force of seed 5000 on a 1 ms grid, around the touch-down (windy flight)."""
     from sportfusion.skijump.sim.simulate import air_density, draw_motion, plan_jump
+    from sportfusion.skijump.sim.venue import as_sim_hill
 
     hill = load_hill("oberstdorf_hs106")
     rng = np.random.default_rng(5000)
     p = draw_motion(rng, 5.0, 3.0, air_density(hill.frame().h))
     p.wind, p.gust, p.gust_period, p.gust_phase = 1.0, 1.5, 1.3, 0.4
     p.dt = 0.001
-    _, motion = plan_jump(hill, p, float(hill.profile.cert.w * rng.uniform(0.9, 1.04)), None)
+    _, motion = plan_jump(as_sim_hill(hill), p, float(hill.profile.cert.w * rng.uniform(0.9, 1.04)), None)
     mt = motion.run()
     k = int(round(mt.times["touchdown"] / p.dt))
     sl = slice(k - 600, k + 300)

@@ -105,6 +105,28 @@ class Hill:
             return (self.site["mag_n"], self.site["mag_e"], self.site["mag_d"])
         return None
 
+    def venue_data(self, step: float = 0.05) -> dict[str, Any]:
+        """The hill as plain numbers for a simulator (:class:`sportfusion.skijump.sim.venue.SimHill`): frame,
+        gravity [m/s^2], field [uT], start gates, ``w`` [m], key points and the in-run and landing profiles
+        as points ``(x, z)`` about ``step`` [m] apart (every segment end included)."""
+        prof = self.profile
+        xi, zi = prof.sample("inrun", step)
+        xl, zl = prof.sample("landing", step)
+        return {
+            "name": self.name,
+            "frame": self.frame(),
+            "g": self.gravity(),
+            "mag_field": self.mag_field(),
+            "meta": self.meta(),
+            "gates": int(prof.cert.gates or 2),
+            "w": float(prof.cert.w),
+            "points": {k: (float(v[0]), float(v[1])) for k, v in prof.points.items()},
+            "inrun_x": xi,
+            "inrun_z": zi,
+            "landing_x": xl,
+            "landing_z": zl,
+        }
+
     def meta(self) -> dict[str, Any]:
         """The table's ``hill`` metadata: name, source, site, certificate, key points, overrides."""
         out: dict[str, Any] = {"name": self.name, "spec": self.spec}

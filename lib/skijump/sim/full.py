@@ -19,7 +19,6 @@ import pyarrow as pa
 
 from sportfusion.core import rotations, schema
 from sportfusion.sim.imu import TriadErrors, sense
-from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.sim.attitude import arm_motion, attitude, mounting
 from sportfusion.skijump.sim.motion import JumpMotion
 from sportfusion.skijump.sim.sensors import (
@@ -34,6 +33,7 @@ from sportfusion.skijump.sim.sensors import (
     temperature,
     translational_vibration,
 )
+from sportfusion.skijump.sim.venue import SimHill
 
 IMU_RATE = 100.0  # [Hz]
 GNSS_RATE = 10.0  # [Hz]
@@ -44,7 +44,7 @@ def _col(name: str, values: np.ndarray) -> pa.Array:
 
 
 def simulate_full(
-    hill: Hill,
+    hill: SimHill,
     seed: int,
     rng: np.random.Generator,
     motion: JumpMotion,
@@ -73,9 +73,9 @@ def simulate_full(
     dict with ``session``, ``truth`` (pyarrow tables), ``times``, ``figures``, ``meta`` (truth metadata
     extras), ``raw`` (what ``write_raw`` needs), ``mounting``, ``motion`` (MotionTruth on the fine grid).
     """
-    frame = hill.frame()
+    frame = hill.frame
     az = frame.azimuth_deg
-    g = hill.gravity()
+    g = hill.g
     fs = r.fine_rate
     dec = int(round(fs / IMU_RATE))
     motion.p.dt = 1.0 / fs
@@ -96,7 +96,7 @@ def simulate_full(
     # magnetic field at the phone: Earth (model + site anomaly) and the table's steel
     mr = stream(seed, "mag")
     anomaly = mr.normal(0.0, r.mag_anomaly, 3)
-    dip = table_dipoles(mr, r, lambda x: hill.profile.z_inrun(x, extend=True))
+    dip = table_dipoles(mr, r, hill.z_inrun)
     field_total = field_o + anomaly + rotations.local_to_ned(dipole_sum(r_imu, dip), az)
     mag_true = rotations.to_body(q, field_total)
     mag_err = TriadErrors(

@@ -42,12 +42,12 @@ from sportfusion.core import rotations, schema
 from sportfusion.core.errors import InputError
 from sportfusion.core.magfield import reference_field
 from sportfusion.sim.ode import bisect_root
-from sportfusion.skijump.hillfile import Hill
 from sportfusion.skijump.sim import DEFAULT_START
 from sportfusion.skijump.sim.attitude import arm_motion, attitude, mounting
 from sportfusion.skijump.sim.contact import ODE_STEP, STEP_PLAN, HillGeometry
 from sportfusion.skijump.sim.motion import JumpMotion, MotionParams, MotionTruth
 from sportfusion.skijump.sim.sensors import VARIANTS, Realism
+from sportfusion.skijump.sim.venue import INRUN_JUNCTIONS, LANDING_JUNCTIONS, SimHill, as_sim_hill
 
 IMU_RATE = 100.0  # [Hz]
 GNSS_EVERY = 10  # GNSS on every tenth IMU sample: 10 Hz
@@ -105,33 +105,31 @@ class SkiJump:
     raw: dict[str, Any]
 
 
-def hill_geometry(hill: Hill, x_start: float) -> HillGeometry:
+def hill_geometry(hill: SimHill, x_start: float) -> HillGeometry:
     """The motion's view of a hill, starting at ``x_start`` [m] on the in-run."""
-    prof = hill.profile
-    pts = prof.points
+    pts = hill.points
     return HillGeometry(
-        z_inrun=lambda x: prof.z_inrun(x, extend=True),
-        z_landing=lambda x: prof.z_landing(x, extend=True),
+        z_inrun=hill.z_inrun,  # type: ignore[arg-type]
+        z_landing=hill.z_landing,  # type: ignore[arg-type]
         x_start=float(x_start),
-        inrun_junctions=tuple(float(pts[k][0]) for k in ("E1", "E2") if k in pts),
-        landing_junctions=tuple(float(pts[k][0]) for k in ("P", "K", "L", "U") if k in pts),
+        inrun_junctions=tuple(float(pts[k][0]) for k in INRUN_JUNCTIONS if k in pts),
+        landing_junctions=tuple(float(pts[k][0]) for k in LANDING_JUNCTIONS if k in pts),
         x_flat=float(pts["U"][0]),
         x_end=float(pts["V"][0]),
-        jump_length=lambda x: float(prof.jump_length(x, extend=True)),
-        g=hill.gravity(),
+        jump_length=hill.jump_length,
+        g=hill.g,
     )
 
 
-def start_position(hill: Hill, gate: float) -> float:
+def start_position(hill: SimHill, gate: float) -> float:
     """x [m] of a start position: gate ``gate`` (1 = lowest, at B; may be fractional) of the hill's gates.
 
     A hill without a number of gates is treated as having two, at B and A.
     """
-    prof = hill.profile
-    n = prof.cert.gates or 2
+    n = hill.gates
     if not 1 <= gate <= n:
         raise InputError(f"gate {gate:g} does not exist on {hill.name}; expected 1 .. {n}")
-    a, b = prof.points["A"], prof.points["B"]
+    a, b = hill.points["A"], hill.points["B"]
     return float(b[0] + (a[0] - b[0]) * (gate - 1) / max(n - 1, 1))
 
 
@@ -169,14 +167,14 @@ def air_density(h: float) -> float:
     return float(1.225 * (1 - 2.25577e-5 * h) ** 4.2559)
 
 
-def plan_jump(hill: Hill, p: MotionParams, distance: float, gate: int | None) -> tuple[float, JumpMotion]:
+def plan_jump(hill: SimHill, p: MotionParams, distance: float, gate: int | None) -> tuple[float, JumpMotion]:
     """Start gate and lift area for a jump of ``distance`` [m]; returns (gate, motion ready to run).
 
     Without ``gate``, the gate is chosen (bisection) so that the drawn lift
     area gives about the distance; the lift area is then solved within
     :data:`LIFT_RANGE`.
     """
-    n = hill.profile.cert.gates or 2
+    n = hill.gates
 
     def motion(g: float, step: float = STEP_PLAN) -> JumpMotion:
         return JumpMotion(hill_geometry(hill, start_position(hill, g)), p, step)
@@ -221,8 +219,9 @@ def _gauss_markov(rng: np.random.Generator, t: np.ndarray, sigma: float, tau: fl
     return out
 
 
-def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
-    """Simulate one jump on ``hill``; see the module text.
+def simulate_skijump(hill: Any, cfg: SkiJumpConfig) -> SkiJump:
+    """Simulate one jump on ``hill`` (a :class:`SimHill`, or a loaded hill file: its venue data); see the
+    module text.
 
     Returns
     -------
@@ -230,7 +229,8 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
         ``session`` (IMU 100 Hz, GNSS 10 Hz), ``truth`` (``true_`` columns and
         ``event``) with their metadata, and ``raw`` (what :func:`write_raw` needs).
     """
-    frame = hill.frame()
+    hill = as_sim_hill(hill)
+    frame = hill.frame
     epoch = sfmeta.parse_epoch(cfg.start)
     rng = np.random.default_rng(cfg.seed)
     p = draw_motion(rng, cfg.rest_before, cfg.rest_after, air_density(frame.h))
@@ -238,7 +238,7 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
         wr = np.random.default_rng([cfg.seed, 7])
         p.wind, p.gust = float(cfg.wind[0]), float(cfg.wind[1])
         p.gust_period, p.gust_phase = float(wr.uniform(0.8, 2.5)), float(wr.uniform(0.0, 2 * np.pi))
-    w = hill.profile.cert.w
+    w = hill.w
     distance = float(cfg.distance) if cfg.distance is not None else float(w * rng.uniform(0.9, 1.04))
     gate, motion = plan_jump(hill, p, distance, cfg.gate)
     if cfg.physics not in PHYSICS:
@@ -250,10 +250,10 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     m_ba = mounting(rng)
     az = frame.azimuth_deg
     q, w_b = attitude(mt.t, math.radians(az), mt.pitch, mt.pitch_rate, mt.heading, mt.heading_rate, arm, m_ba)
-    g = hill.gravity()
+    g = hill.g
     f_o = rotations.local_to_ned(mt.a - np.array([0.0, 0.0, g]), az)
     acc_true = rotations.to_body(q, f_o)
-    field_o = np.asarray(hill.mag_field() or reference_field(frame.lat, frame.lon, frame.h, epoch), dtype=float)
+    field_o = np.asarray(hill.mag_field or reference_field(frame.lat, frame.lon, frame.h, epoch), dtype=float)
     mag_true = rotations.to_body(q, np.broadcast_to(field_o, (mt.t.size, 3)))
     v_o = rotations.local_to_ned(mt.v, az)
     # constant sensor errors (Table 3 priors), then white noise (Tables 4-5)
@@ -300,7 +300,7 @@ def simulate_skijump(hill: Hill, cfg: SkiJumpConfig) -> SkiJump:
     lat, lon, h = frame.to_geodetic(pos[:, 0], pos[:, 1], pos[:, 2])
     session = _session_table(mt.t, gyr, acc, mag, ig, lat, lon, h, vel, cfg)
     events = [{"name": "takeoff", "t": mt.times["takeoff"]}, {"name": "touchdown", "t": mt.times["touchdown"]}]
-    hill_meta = hill.meta()
+    hill_meta = hill.meta
     base = {"frame": frame.to_meta(), "hill": hill_meta}
     session_meta = {**sfmeta.new_meta("session", epoch), **base}
     truth_meta = {**sfmeta.new_meta("truth", epoch), **base}
@@ -342,18 +342,20 @@ def full_realism(cfg: SkiJumpConfig) -> Realism:
     return r
 
 
-def _full(hill: Hill, cfg: SkiJumpConfig, rng, p: MotionParams, motion: JumpMotion, gate, distance, epoch) -> SkiJump:  # noqa: ANN001
+def _full(
+    hill: SimHill, cfg: SkiJumpConfig, rng, p: MotionParams, motion: JumpMotion, gate, distance, epoch
+) -> SkiJump:  # noqa: ANN001
     """``physics="full"``: :func:`sportfusion.skijump.sim.full.simulate_full` and the tables' metadata."""
     from sportfusion.skijump.sim.full import simulate_full
 
-    frame = hill.frame()
-    field_o = np.asarray(hill.mag_field() or reference_field(frame.lat, frame.lon, frame.h, epoch), dtype=float)
+    frame = hill.frame
+    field_o = np.asarray(hill.mag_field or reference_field(frame.lat, frame.lon, frame.h, epoch), dtype=float)
     r = full_realism(cfg)
     lever = tuple(float(v) for v in cfg.lever_arm) if any(cfg.lever_arm) else None
     out = simulate_full(hill, cfg.seed, rng, motion, field_o, r, cfg.outages, lever, cfg.noise)  # type: ignore[arg-type]
     times, figures = out["times"], out["figures"]
     events = [{"name": "takeoff", "t": times["takeoff"]}, {"name": "touchdown", "t": times["touchdown"]}]
-    base = {"frame": frame.to_meta(), "hill": hill.meta()}
+    base = {"frame": frame.to_meta(), "hill": hill.meta}
     session_meta = {**sfmeta.new_meta("session", epoch), **base}
     truth_meta = {**sfmeta.new_meta("truth", epoch), **base}
     truth_meta["jump_length"] = figures["jump_length"]
@@ -365,7 +367,7 @@ def _full(hill: Hill, cfg: SkiJumpConfig, rng, p: MotionParams, motion: JumpMoti
         "figures": figures,
         "gate": gate,
         "distance_target": distance,
-        "gravity": hill.gravity(),
+        "gravity": hill.g,
         "mag_field_ned": field_o.tolist(),
         "mounting_dcm": out["mounting"].tolist(),
         "motion": asdict(p),
